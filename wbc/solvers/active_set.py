@@ -1,29 +1,18 @@
-"""Compiled (numba) exact solver of a QP with equality rows, two-sided inequality rows and bounds:
+"""Compiled (numba) exact solver of the QP of :mod:`wbc.solvers.qp_data` (H positive definite; the first m rows of A
+are the equalities): :func:`dual_active_set`, the dual active-set method of Goldfarb & Idnani ("A numerically stable
+dual method for solving strictly convex quadratic programs", Math. Program. 27, 1983, §3; quadprog's and qpmad's),
+warm-started from the previous call's working set. The iteration is written once; the linear algebra of a working
+set is a strategy chosen by the type of the ``space`` argument (numba compiles one specialisation per type):
 
-    min_x ½ xᵀ H x + gᵀ x   s.t.   A[:m] x = b[:m],   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+* :class:`DenseSpace` — any positive definite H: H = L Lᵀ once per call, the working set's normals N kept through
+  Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_ws` (the kinematic tick, ``FastBackend``).
+* :class:`BlockSpace` — H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP): held bounds eliminated,
+  L Lᵀ = H_vv on the free accelerations, D⁻¹ on the free forces, the Schur complement of the working rows
+  (:mod:`wbc.solvers.active_set_block`, :func:`wbc.solvers.compiled_id.id_solve`).
 
-(H positive definite): :func:`dual_active_set`, the dual active-set method of Goldfarb & Idnani ("A numerically
-stable dual method for solving strictly convex quadratic programs", Math. Program. 27, 1983, §3) — the method of
-quadprog and of placo's qpmad —, warm-started from the previous call's working set. The iteration (the start from a
-dual-feasible working set, the choice of the violated constraint, the step length, the multiplier updates, the
-dependency test, the final KKT check) is written once; the linear algebra of a working set is a strategy chosen
-by the type of the ``space`` argument (numba compiles one specialisation per type):
-
-* :class:`DenseSpace` — any positive definite H, range-space form: H = L Lᵀ factored once per call, the working
-  set (equalities, rows and bounds alike, normals N) kept through Y = L⁻¹Nᵀ and the Cholesky factor of its Gram
-  matrix S = Y Yᵀ (a new member costs one substitution and a row of S, a leaving one a permutation, then S is
-  refactored, |W|³/6). :func:`solve_qp_ws` is the method on this space (the kinematic tick, ``FastBackend``).
-* :class:`BlockSpace` — H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP: accelerations, then
-  forces regularised by ε_f I): the bounds held by the working set are eliminated (the variables fixed on them),
-  L Lᵀ = H_vv on the free accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur
-  complement of the working rows (range-space method, Nocedal & Wright 2006, *Numerical Optimization*, §16.2);
-  each equality-constrained optimum gets two steps of iterative refinement (the Schur complement carries
-  D⁻¹ = 1/ε_f; :mod:`wbc.solvers.active_set_block`). Used by :func:`wbc.solvers.compiled_id.id_solve`.
-
-A constraint linearly dependent on the working set (z = 0: self-collision rows of the thighs that the contacts fix,
-nearly parallel; a sole corner with f_z = 0 whose friction-pyramid rows and bound are dependent) only drops working
-constraints, which keeps the working set linearly independent — the degenerate case that makes the principal
-pivoting of :mod:`wbc.solvers.box_eq` stop. Exit codes: :mod:`wbc.solvers.status`.
+A constraint linearly dependent on the working set only drops working constraints, which keeps the working set
+independent — the degenerate case (nearly parallel self-collision rows, a sole corner at f_z = 0) that makes the
+principal pivoting of :mod:`wbc.solvers.box_eq` stop. Exit codes: :mod:`wbc.solvers.status`.
 """
 
 from __future__ import annotations
@@ -47,35 +36,25 @@ __all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "
            "dual_active_set", "load_active_set_kernels", "qp_ws_float_size", "qp_ws_int_size", "solve_qp_into",
            "solve_qp_ws"]
 
-#: workspace of the dense range-space strategy (:func:`solve_qp_ws` allocates it): L (n, n) factor of H; Yw (K, n)
-#: = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r,
-#: bw, nuw (K,): products, step multipliers, right-hand sides, multipliers by slot; kind (0 equality, 1 row of C,
-#: 2 bound), idx, side (K,) int64: the slots; sc (1,): wᵀw; rank_tol: relative pivot of S² below which the working
-#: set counts as dependent. K = n + m + 1.
+#: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
+#: matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r, bw, nuw (K,); kind (0 equality, 1 row of C,
+#: 2 bound), idx, side (K,) int64: the slots; sc (1,): wᵀw; rank_tol: the dependency pivot. K = n + m + 1.
 DenseSpace = namedtuple("DenseSpace", "L Yw Sm Sf t0 y w tmp r bw nuw kind idx side sc rank_tol")
-#: workspace of the block strategy (H = blockdiag(H[:nv, :nv], diagonal)): nv; rows (w,) int64 the working rows
-#: (A[:m], then held rows of C as m + r); Yv (w, nv); S (w, w); L (nv, nv); vfree (nv,), ffree (n − nv,) int64 free
-#: variables; vrow (w,) bool; fac (3,) int64 (free accelerations factored, free forces, working rows); a, ra, dx,
-#: npv (n,); c, rc, drho, nuw (w,); tv (nv,); dep_tol: squared sine (H⁻¹ metric) below which a working row counts
-#: as dependent on the ones before it. :func:`wbc.formulations.idkernel.id_workspace` allocates the arrays.
+#: workspace of the block strategy (:mod:`wbc.solvers.active_set_block`): nv; rows (w,) int64 the working rows (A[:m],
+#: then held rows of C as m + r); Yv (w, nv); S (w, w); L (nv, nv); vfree (nv,), ffree (n − nv,) int64 free
+#: variables; vrow (w,) bool; fac (3,) int64 (free accelerations factored, free forces, working rows); a, ra, dx, npv
+#: (n,); c, rc, drho, nuw (w,); tv (nv,); dep_tol: squared sine (H⁻¹ metric) below which a working row is dependent.
+#: :func:`wbc.formulations.idkernel.id_workspace` allocates it.
 BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c tv ra rc dx drho npv nuw dep_tol")
-#: the arrays of :func:`dual_active_set` (n variables, p rows of C): state (n,), rstate (p,) int8 the working set
-#: (in/out); x (n,), nu (≥ m,), mu (p,), lam_b (n,), lam_r (p,), out (3,) the outputs; z, rb (n,) workspace
+#: the arrays and settings of :func:`dual_active_set` (its Args)
 ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
-#: the settings of :func:`dual_active_set`: max_iter, start_cost (ints), primal_tol, dual_tol, dep_tol, block_tol,
-#: verify_tol (floats), hold_fixed, refresh (bools)
 ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
                                                     "refresh start_cost verify_tol")
-#: the arrays of :func:`solve_qp_ws` / :func:`solve_qp_into` (n variables, m equality, p inequality rows): state
-#: (n,), rstate (p,) int8 the working set (in/out, read as the warm start); x (n,), nu (m,), mu (p,), z (n,),
-#: eq_residual (1,) the outputs. A plain tuple in this order is taken as well (numba's dispatcher types a plain
-#: tuple of arrays faster than a namedtuple: the ``fast`` backend's per-call entry passes one)
+#: the arrays and limits of :func:`solve_qp_ws` / :func:`solve_qp_into` (its Args); a plain tuple in their order is
+#: taken as well (numba types it faster than a namedtuple: the ``fast`` backend passes one)
 QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
-#: the limits of :func:`solve_qp_ws` / :func:`solve_qp_into`: max_iter (int), primal_tol, dual_tol, rank_tol
-#: (floats); or a plain tuple in this order
 QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
-#: relative size (to the largest multiplier, at least 1) of a negative working multiplier that fails the final
-#: KKT check of :func:`dual_active_set`
+#: negative working multiplier, relative to the largest (at least 1), that fails :func:`dual_active_set`'s KKT check
 DUAL_CHECK_TOL = 1e-9
 
 
@@ -214,9 +193,8 @@ def _dense_start(qp, sp, state, rstate):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
-    """Equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
-    H = L Lᵀ, Y = L⁻¹Nᵀ: S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν)), ν of the equality rows in nu[:m] and the
-    oriented multipliers side·ν of the working rows and bounds in lam_r, lam_b."""
+    """:func:`_ws_eqp` on the working set: ν of the equality rows in nu[:m], the oriented multipliers side·ν of the
+    working rows and bounds in lam_r, lam_b."""
     n = x.shape[0]
     m = qp[4]
     nuw, kind, idx, side = sp.nuw, sp.kind, sp.idx, sp.side
@@ -373,25 +351,17 @@ def _violation(C, l, u, lb, ub, x, state, rstate, tol):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def dual_active_set(qp, space, arrays, settings):
-    """Exact solution of  min ½xᵀHx + gᵀx  s.t.  A[:m] x = b[:m],  l ≤ Cx ≤ u,  lb ≤ x ≤ ub  (H positive definite)
-    by the dual active-set method of Goldfarb & Idnani (1983, §3), warm-started from a working set; the linear
-    algebra is the strategy of ``space`` (module docstring).
+    """Exact solution of the QP (module docstring) by the dual active-set method of Goldfarb & Idnani (1983, §3).
 
-    The working set W holds the equality rows, the rows of C and the bounds held at one side. Start: the
-    equality-constrained optimum on the warm start (a dependent one is emptied, the variables with lb = ub kept
-    when ``hold_fixed``), whose inequality with the most negative multiplier (below −``dual_tol``) leaves until
-    none is (a dual-feasible point). Then, while a constraint out of W is violated by more than ``primal_tol``, the
-    most violated, p (inward normal n_p), is approached along the step z with H z = n_p − Σ_W r_j n_j keeping W's
-    constraints at their bounds, the working multipliers λ decreasing by t·r (clamped at 0): the step t is the
-    smaller of the full step (p joins W with multiplier Σt) and the first λ_j / r_j over r_j > ``block_tol``·max|r|
-    (that constraint leaves, the step toward p goes on). When n_p is dependent on W (n_p·z ≤ ``dep_tol`` · n_pᵀH⁻¹n_p
-    in the metric of the free variables) only the second kind exists, x does not move; when no multiplier can
-    decrease either, the constraints admit no solution (INFEASIBLE). With ``refresh`` x and λ are recomputed as the
-    working set's equality-constrained optimum after each full step (the GI updates only steer); otherwise once
-    no constraint is violated, and the method goes on if a multiplier is then below −``dual_tol`` or a constraint
-    violated. At the end every bound held is set exactly, x is clipped into [lb, ub], and the KKT check: every
-    working multiplier ≥ −``DUAL_CHECK_TOL`` (relative to the largest, at least 1), every equality and row
-    satisfied to ``verify_tol``.
+    Start: the equality-constrained optimum on the warm start (a dependent one emptied; lb = ub variables kept when
+    ``hold_fixed``), whose inequality with the most negative multiplier leaves until none is below −``dual_tol``.
+    Then, while a constraint is violated by more than ``primal_tol``, the most violated, p, is approached along the
+    step keeping the working set W at its bounds: the full step (p joins W), or the first working multiplier to
+    reach 0 among those with r_j > ``block_tol``·max|r| (it leaves). When n_p is dependent on W (n_p·z ≤ ``dep_tol``
+    · n_pᵀH⁻¹n_p) only the second exists; when none does, INFEASIBLE. With ``refresh`` x and the multipliers are
+    recomputed on W after each full step, else once no constraint is violated (the method then goes on if a
+    multiplier or a constraint is wrong). At the end the held bounds are set exactly, x clipped into [lb, ub], and
+    the KKT check: working multipliers ≥ −:data:`DUAL_CHECK_TOL` (relative), rows satisfied to ``verify_tol``.
 
     Args:
         qp: (H (n, n), g (n,), A (≥ m, n), b (≥ m,), m, C (p, n), l, u (p,), lb, ub (n,)), ±inf for absent sides.
@@ -607,29 +577,19 @@ def dual_active_set(qp, space, arrays, settings):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_ws(qp, arrays, limits):
-    """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub (H positive definite):
-    :func:`dual_active_set` on a :class:`DenseSpace` (range-space form, warm-started from a working set; x and the
-    multipliers recomputed on the final working set and every KKT condition checked, a failed check continuing
-    the method), the dependency test at 1e-10, a working multiplier blocking when its r exceeds 1e-9 of the
-    largest.
+    """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest).
 
     Args:
-        qp: a :class:`~wbc.solvers.qp_data.QPData` (or a plain tuple in its order) H, g, A, b, C, l, u, lb, ub, of
-            shapes (n, n), (n,), (m, n), (m,), (p, n), (p,), (p,), (n,), (n,) (±inf for absent sides).
-        arrays: a :data:`QPWarmArrays` (or a plain tuple in its order): state (n,) int8, rstate (p,) int8, in/out:
-            working set (0 out, −1 held at the lower, +1 at the upper side), read as the warm start; x (n,),
-            nu (m,), mu (p,), z (n,): out — solution and multipliers (H x + g + Aᵀnu + Cᵀmu + z = 0; mu, z ≤ 0 at
-            a lower side, ≥ 0 at an upper one, 0 out of the working set); eq_residual (1,): out — largest residual
-            of the rows (equalities, inequalities) at the returned x, inf after an exit code other than
-            NOT_VERIFIED.
-        limits: a :data:`QPLimits` (or a plain tuple in its order): max_iter: steps allowed (drops and GI steps).
-            primal_tol: violation that counts. dual_tol: negative multiplier that counts. rank_tol: relative pivot
-            of S² below which W counts as dependent.
-
-    On success x lies inside [lb, ub] exactly (clipped: it is within rounding of them).
+        qp: a :class:`~wbc.solvers.qp_data.QPData` (n variables, m equality rows, p rows of C).
+        arrays: a :data:`QPWarmArrays`: state (n,), rstate (p,) int8, in/out: working set (0 out, −1 lower, +1 upper
+            side), read as the warm start; out: x (n,), nu (m,), mu (p,), z (n,) (H x + g + Aᵀnu + Cᵀmu + z = 0;
+            mu, z ≤ 0 at a lower side, ≥ 0 at an upper one), eq_residual (1,): largest row residual (inf after an
+            exit code other than NOT_VERIFIED).
+        limits: a :data:`QPLimits`: max_iter (drops and GI steps), primal_tol, dual_tol, rank_tol (relative pivot of
+            S² below which W counts as dependent).
 
     Returns:
-        steps (≥ 1) on success, or DEPENDENT_EQUALITIES / NOT_POSITIVE_DEFINITE / ITERATION_CAP / INFEASIBLE.
+        steps (≥ 1) on success, x inside [lb, ub] exactly; or a negative exit code.
     """
     n = qp[0].shape[0]
     m = qp[2].shape[0]
@@ -694,12 +654,8 @@ def solve_qp_into(qp, arrays, limits, fw, iw):
 
 @once_per_process
 def load_active_set_kernels() -> None:
-    """Compile (or load from the on-disk cache), once per process, :func:`solve_qp_into` for the argument types
-    both its callers give it (plain tuples: the QP's C-contiguous float64 arrays, the int8 working sets and the
-    outputs, the limits; float64 and int64 workspaces):
-    :func:`solve_qp_ws` (the ``fast`` backend, :mod:`wbc.solvers.fast`) and the kinematic tick
-    (:mod:`wbc.formulations.velocity_kernel`). Their loaders run after this one (``wbc compile``'s
-    :data:`wbc.cli.kernels.AFTER`) and link this version instead of compiling their own."""
+    """Compile (or load), once per process, :func:`solve_qp_into` for its callers' argument types (plain tuples):
+    the ``fast`` backend's and the kinematic tick's loaders run after this one and link this version."""
     n, m, p = 2, 1, 1
     solve_qp_into((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
                    -np.ones(n), np.ones(n)),

@@ -1,25 +1,15 @@
-"""Compiled (numba) exact solver of a QP with equality rows and bounds only:
+"""Compiled (numba) exact solver of the QP of :mod:`wbc.solvers.qp_data` without rows C (H positive definite, A full
+row rank), warm-started from the previous call's working set (the variables held at a bound): :func:`solve_box_eq_ws`
+(workspace given) and :func:`solve_box_eq` (allocating). Each tuple argument may be a plain tuple in its namedtuple's
+order (numba types a plain tuple of arrays faster than a namedtuple; compiled callers pass them too, to link the one
+compiled version).
 
-    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   lb ≤ x ≤ ub
-
-(H symmetric positive definite, A full row rank), warm-started from the previous call's working set (the variables
-held at a bound): :func:`solve_box_eq_ws` (workspace given) and :func:`solve_box_eq` (allocating).
-
-Their arguments, as those of :func:`wbc.solvers.active_set.solve_qp_ws`: the QP (H, g, A, b, lb, ub: the order of
-:class:`~wbc.solvers.qp_data.QPData` without its rows C, l, u), a :data:`BoxEqArrays` (working set and outputs),
-the limits (a :data:`wbc.solvers.active_set.QPLimits`) and, for :func:`solve_box_eq_ws`, a :data:`BoxEqSpace`.
-Each may be a plain tuple in that order instead (the kernels unpack them by position): numba's dispatcher types a
-plain tuple of arrays by its fingerprint, a namedtuple through Python's typeof, so the Python callers pass plain
-tuples; compiled callers pass them too, to link the one compiled version.
-
-For a fixed working set W the free part F solves the equality-constrained QP through its KKT system, eliminated with
-a Cholesky factor L Lᵀ = H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (Nocedal & Wright, *Numerical
-Optimization*, 2nd ed., §16.2, eq. 16.16 "range-space method"), refined once on the equality rows (the Schur
-complement squares their conditioning). The working set is then corrected: the free variable
-furthest outside its bounds is fixed at the violated bound; otherwise the fixed variable whose bound multiplier has
-the wrong sign (most negative) is freed (single-pivot principal pivoting, Júdice & Pires, Comput. Oper. Res. 21(5),
-1994). The loop ends only when every KKT condition holds, so the returned x is the exact optimum; otherwise a
-negative exit code (:mod:`wbc.solvers.status`).
+For a working set W the free part F solves the equality-constrained QP by the range-space method (Nocedal & Wright,
+*Numerical Optimization*, 2nd ed., §16.2: L Lᵀ = H_FF, S = A_F H_FF⁻¹ A_Fᵀ), refined once on the equality rows. Then
+the free variable furthest outside its bounds is fixed at the violated bound, else the fixed variable whose bound
+multiplier has the most wrong sign is freed (single-pivot principal pivoting, Júdice & Pires, Comput. Oper. Res.
+21(5), 1994). The loop ends only when every KKT condition holds; otherwise a negative exit code
+(:mod:`wbc.solvers.status`).
 """
 
 from __future__ import annotations
@@ -37,13 +27,10 @@ from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE
 __all__ = ["BoxEqArrays", "BoxEqSpace", "clip_eq_residual", "drop_infinite_active", "load_box_eq_kernels",
            "solve_box_eq", "solve_box_eq_ws"]
 
-#: the arrays of :func:`solve_box_eq_ws` / :func:`solve_box_eq` (n variables, m equality rows): state (n,) int8 the
-#: working set (in/out, read as the warm start); x (n,), nu (m,), z (n,), eq_residual (1,) the outputs. A plain tuple
-#: in this order is taken as well (module docstring)
+#: the arrays of :func:`solve_box_eq_ws` (:func:`solve_box_eq_ws`'s Args)
 BoxEqArrays = namedtuple("BoxEqArrays", "state x nu z eq_residual")
 #: the workspace of :func:`solve_box_eq_ws`: free (n,) int64 (the free variables, then the fixed ones from the end);
-#: L (n, n) the Cholesky factor of H_FF; Y (m, n) = L⁻¹A_Fᵀ by row; S (m, m) the Schur complement and its factor;
-#: t (n,), rhs (m,) vectors. Or a plain tuple in this order
+#: L (n, n) the factor of H_FF; Y (m, n) = L⁻¹A_Fᵀ by row; S (m, m) the Schur complement's factor; t (n,), rhs (m,)
 BoxEqSpace = namedtuple("BoxEqSpace", "free L Y S t rhs")
 
 
@@ -57,16 +44,9 @@ def solve_box_eq(qp, arrays, limits):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _working_set_step(qp, state, x, nu, rank_tol, space, e):
-    """One equality-constrained solve for a fixed working set: the variables held at a bound (``state`` ≠ 0) are
-    set onto it in x, and the free ones minimise ½xᵀHx + gᵀx subject to ``A x = b`` (qp = (H, g, A, b, lb, ub)),
-    through the Cholesky factor L of H_FF and the Schur complement S = A_F H_FF⁻¹ A_Fᵀ (range-space method; Nocedal
-    & Wright 2006, §16.2), refined once on the equality rows (:func:`_refine_equalities`; e (n,) is scratch), in the
-    :data:`BoxEqSpace` ``space``. On return t[:nf] holds x_F (in the order of ``free[:nf]``) and nu[:m] the
-    multipliers.
-
-    Returns:
-        nf, the number of free variables (≥ 0), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES.
-    """
+    """The equality-constrained optimum on the working set ``state`` (module docstring; e (n,) scratch): the held
+    variables set in x, x_F in t[:nf] (order of ``free[:nf]``), the multipliers in nu[:m]. Returns nf (≥ 0), or
+    NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES."""
     H, g, A, b, lb, ub = qp
     free, L, Y, S, t, rhs = space
     n = H.shape[0]
@@ -145,13 +125,9 @@ def _working_set_step(qp, state, x, nu, rank_tol, space, e):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _refine_equalities(qp, space, nf, nw, x, nu, e):
-    """One step of iterative refinement of the range-space solve on its equality rows (Golub & Van Loan, *Matrix
-    Computations*, 4th ed., §3.5.3): the Schur complement S = A_F H_FF⁻¹ A_Fᵀ squares the conditioning of A_F, so
-    A_F x_F = b − A_W x_W holds only to ≈ ε·cond(S) after one solve. With the residual r, the correction
-    d = H_FF⁻¹ A_Fᵀ w, S w = r, is the least-H-norm step onto the rows (A_F d = r); it keeps stationarity with the
-    multipliers nu − w. Reuses the factors L (of H_FF), Y = L⁻¹A_Fᵀ and S's Cholesky factor of the
-    :data:`BoxEqSpace` ``space`` (free[:nf] the free variables, free[nw:] the fixed ones, t[:nf] x_F, refined in
-    place); its rhs (m,), as r, and e (n,) are scratch."""
+    """One step of iterative refinement on the equality rows (Golub & Van Loan, *Matrix Computations*, 4th ed.,
+    §3.5.3; S squares A_F's conditioning): d = H_FF⁻¹ A_Fᵀ w, S w = r (the residual), the least-H-norm step onto the
+    rows, multipliers nu − w. Reuses ``space``'s factors; t[:nf] refined in place; rhs and e (n,) scratch."""
     H, _, A, b, _, _ = qp
     free, L, Y, S, t, r = space
     n = H.shape[0]
@@ -181,8 +157,7 @@ def _refine_equalities(qp, space, nf, nw, x, nu, e):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _place_free(free, t, nf, x, lb, ub, primal_tol):
-    """Write the free-variable solution ``t[:nf]`` into ``x[free[:nf]]`` and return the bound it violates most
-    beyond ``primal_tol``: ``(violation, variable index or −1, −1 lower / +1 upper / 0)``."""
+    """x[free[:nf]] = t[:nf]; the bound violated most beyond ``primal_tol``: (violation, index or −1, side)."""
     worst = primal_tol
     worst_i = -1
     worst_side = 0
@@ -199,8 +174,7 @@ def _place_free(free, t, nf, x, lb, ub, primal_tol):
 
 @nb.njit(cache=True, nogil=True)
 def drop_infinite_active(state, lo, hi):
-    """A warm-start state (−1 at the lower, +1 at the upper bound, 0 free) is only valid where that bound is
-    finite: free the others, in place."""
+    """Free the entries of a warm-start state (−1 lower, +1 upper, 0 free) held at an infinite bound, in place."""
     for i in range(state.shape[0]):
         if state[i] == -1 and not np.isfinite(lo[i]):
             state[i] = 0
@@ -210,8 +184,7 @@ def drop_infinite_active(state, lo, hi):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def clip_eq_residual(x, lb, ub, A, b, n, m):
-    """Clip x into [lb, ub] in place (the kernel's KKT point is within rounding of its bounds) and return the
-    largest equality residual max_k |A_k x − b_k|."""
+    """Clip x into [lb, ub] in place; return max_k |A_k x − b_k|."""
     for i in range(n):
         if x[i] < lb[i]:
             x[i] = lb[i]
@@ -222,9 +195,8 @@ def clip_eq_residual(x, lb, ub, A, b, n, m):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _bound_multipliers(H, g, A, m, nu, state, x, z, worst):
-    """Bound multipliers z = −(H x + g + A[:m]ᵀ nu) on the variables held at a bound (0 on the free ones), and the
-    variable whose multiplier has the largest wrong sign above ``worst`` (z > 0 at a lower bound, z < 0 at an upper
-    one). Returns (that magnitude or ``worst``, its index or −1)."""
+    """z = −(H x + g + A[:m]ᵀ nu) on the held variables (0 on the free ones); returns (largest wrong sign above
+    ``worst``, its index or −1)."""
     n = H.shape[0]
     worst_i = -1
     for i in range(n):
@@ -249,23 +221,17 @@ def solve_box_eq_ws(qp, arrays, limits, space):
     """Exact solution of min ½xᵀHx + gᵀx s.t. Ax = b, lb ≤ x ≤ ub (module docstring).
 
     Args:
-        qp: H, g, A, b, lb, ub (a tuple; :class:`~wbc.solvers.qp_data.QPData`'s order without C, l, u), of shapes
-            (n, n), (n,), (m, n), (m,), (n,), (n,) (±inf for free entries).
-        arrays: a :data:`BoxEqArrays` (or a plain tuple in its order): state (n,) int8, in/out: working set (0 free,
-            -1 held at lb, +1 held at ub), read as the warm start; x (n,), nu (m,), z (n,): out — solution,
-            equality multipliers, bound multipliers (stationarity H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound,
-            z ≥ 0 at an upper bound, 0 when free); eq_residual (1,): out — max |A x − b| of the returned x.
-        limits: a :data:`wbc.solvers.active_set.QPLimits` (or a plain tuple in its order): max_iter: working-set
-            iterations allowed. primal_tol: bound violation (absolute) that makes a free variable be fixed.
-            dual_tol: wrong-sign multiplier magnitude that makes a fixed variable be freed. rank_tol: relative
-            pivot of the Schur complement below which the equalities count as dependent.
-        space: a :data:`BoxEqSpace` (or a plain tuple in its order): free (n,) int64, L (n, n), Y (m, n),
-            S (m, m), t (n,), rhs (m,), the workspace.
-
-    On success x lies inside [lb, ub] exactly (free entries within ``primal_tol`` of a bound are clipped onto it).
+        qp: H, g, A, b, lb, ub (QPData's order without C, l, u): (n, n), (n,), (m, n), (m,), (n,), (n,).
+        arrays: a :data:`BoxEqArrays`: state (n,) int8, in/out: working set (0 free, −1 at lb, +1 at ub), read as the
+            warm start; out: x (n,), nu (m,), z (n,) (H x + g + Aᵀ nu + z = 0; z ≤ 0 at a lower bound, ≥ 0 at an
+            upper one), eq_residual (1,): max |A x − b|.
+        limits: a :data:`wbc.solvers.active_set.QPLimits`: max_iter; primal_tol: bound violation that fixes a
+            variable; dual_tol: wrong-sign multiplier that frees one; rank_tol: relative pivot of S below which the
+            equalities count as dependent.
+        space: a :data:`BoxEqSpace`.
 
     Returns:
-        iterations (≥ 1) on success, or a negative exit code.
+        iterations (≥ 1) on success, x inside [lb, ub] exactly; or a negative exit code.
     """
     H, g, A, b, lb, ub = qp
     state, x, nu, z, eq_residual = arrays
@@ -293,11 +259,8 @@ def solve_box_eq_ws(qp, arrays, limits, space):
 
 @once_per_process
 def load_box_eq_kernels() -> None:
-    """Compile (or load from the on-disk cache), once per process, :func:`solve_box_eq_ws` for the argument types
-    its callers give it (plain tuples: the QP's C-contiguous float64 arrays, the int8 working set and the outputs,
-    the limits, the workspace with its int64 free list) — the ``fast`` backend (:mod:`wbc.solvers.fast`) and the
-    kinematic tick (:mod:`wbc.formulations.velocity_kernel`), whose loaders run after this one (``wbc compile``'s
-    :data:`wbc.cli.kernels.AFTER`) and link this version."""
+    """Compile (or load), once per process, :func:`solve_box_eq_ws` for its callers' argument types (plain tuples):
+    the ``fast`` backend's and the kinematic tick's loaders run after this one and link this version."""
     n, m = 2, 1
     solve_box_eq_ws((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), -np.ones(n), np.ones(n)),
                     (np.zeros(n, np.int8), np.empty(n), np.empty(m), np.empty(n), np.empty(1)),

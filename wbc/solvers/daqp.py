@@ -1,9 +1,4 @@
-"""DAQP backend: :class:`DaqpBackend`, DAQP's dual active-set solver called directly (no conversion layer).
-
-Equalities are DAQP's sense-5 rows, bounds its simple bounds, and the previous tick's working set (persistent
-``daqp.Model`` workspace) or dual variables (one-shot ``daqp.solve``) the warm start; each call's iterations are
-bounded (:data:`ITERATION_LIMIT`, and the tick's counted work: :meth:`DaqpBackend.call_limit`).
-"""
+"""DAQP backend: :class:`DaqpBackend`, DAQP's dual active-set solver called directly (no conversion layer)."""
 
 from __future__ import annotations
 
@@ -21,55 +16,41 @@ __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR",
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
 
-#: a DAQP call of :class:`DaqpBackend` under a controller's counted tick work (``QPBackend.work`` with a finite cap)
-#: may take at most the iterations that keep the tick's count below WORK_LIMIT_FACTOR × its cap
-#: (``QPBackend.iterations_per_solve`` iterations per solve, one solve kept for what follows the call), at least
-#: :data:`MIN_CALL_ITERATIONS`: a stage already started cannot run past the budget by a full iteration cap
+#: under a counted tick work a DAQP call stops where the count would pass WORK_LIMIT_FACTOR × its cap, after at
+#: least MIN_CALL_ITERATIONS iterations (:meth:`DaqpBackend.call_limit`)
 WORK_LIMIT_FACTOR = 1.9
 MIN_CALL_ITERATIONS = 10
 
-#: CPU time (s) of one DAQP iteration assumed by :attr:`DaqpBackend.deadline` (an inverse-dynamics QP of a humanoid,
-#: 46–62 variables and ~190 constraints; benchmarks/README.md, "The ID failure path ordered by cost")
+#: CPU time (s) of one DAQP iteration assumed by :attr:`DaqpBackend.deadline` (a humanoid's inverse-dynamics QP,
+#: 46–62 variables, ~190 constraints; benchmarks/README.md, "The ID failure path ordered by cost")
 DAQP_ITERATION_COST = 3.5e-6
-
-#: a DAQP call under a deadline measures its CPU time per iteration when it ran at least this many iterations
-#: (fewer: the call's set-up dominates) — :meth:`DaqpBackend._timed`
+#: a call under a deadline measures its CPU time per iteration when it ran at least this many (:meth:`_timed`);
+#: the measured cost falls by MEASURED_COST_DECAY per call that measured less, and rises at once
 MEASURED_CALL_ITERATIONS = 50
-#: the measured cost per iteration falls by this factor per call that measured less (it rises at once)
 MEASURED_COST_DECAY = 0.97
-
 #: DAQP's exit flag of a call stopped by its iteration limit
 _DAQP_ITERATION_LIMIT = -4
-#: DAQP's default primal tolerance (its settings' ``primal_tol``)
+#: DAQP's default ``primal_tol``
 DAQP_PRIMAL_TOL = 1e-6
-
-#: ``DaqpBackend(warm_start="dual")``: after a failed cold solve, DAQP is asked once more with its primal tolerance
-#: (the feasibility threshold of its infeasibility verdict) at this multiple of the backend's ``tolerance``.
+#: ``warm_start="dual"``: a failed cold solve is asked once more with DAQP's primal tolerance at this multiple of
+#: the backend's ``tolerance``
 DUAL_RETRY_PRIMAL_FACTOR = 10.0
 
 
 @register_backend_class("daqp")
 class DaqpBackend(QPBackend):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
-    recursive LDLᵀ updates", IEEE TAC 67(8), 2022) through a persistent ``daqp.Model`` workspace: set up once
-    per problem size, then ``update`` + ``solve`` every tick, warm-started from the previous tick's working set;
-    a warm-started solve that fails, or whose solution fails the independent constraint check, is repeated from a
-    cold start (then with DAQP's one-shot ``daqp.solve``) before the tick is declared failed; a warm-started call
-    stopped by the settings' whole ``iter_limit`` (the workspace cycling) is repeated with the one-shot call first,
-    the cold workspace only if that fails. Bounds are DAQP's simple bounds, equalities sense-5 rows, inequalities
-    two-sided rows.
+    recursive LDLᵀ updates", IEEE TAC 67(8), 2022): bounds are its simple bounds, equalities sense-5 rows. A failed
+    warm-started solve is repeated cold (a fresh workspace, then the one-shot ``daqp.solve``); a workspace call that
+    ran its whole ``iter_limit`` (cycling) is repeated with the one-shot call first.
 
     Args:
         tolerance: largest constraint violation accepted (constraint units).
-        warm_start: ``"workspace"`` (persistent ``daqp.Model``: the factorisations and working set are reused;
-            fastest on the kinematic tick, few inequalities) or ``"dual"`` (one-shot ``daqp.solve`` started from
-            the previous tick's dual variables; fastest on the inverse-dynamics QP, many inequalities).
-        **settings: DAQP settings (e.g. ``eps_prox`` for the semidefinite levels of a hierarchy,
-            ``primal_tol``); DAQP's defaults otherwise, except ``iter_limit`` (default :data:`ITERATION_LIMIT`: one
-            call's work is bounded; a solve that reaches it is a failed attempt). Under a controller's counted tick
-            work (``work`` with a finite cap) each call's limit is also at most what keeps the count below
-            :data:`WORK_LIMIT_FACTOR` × the cap (:meth:`call_limit`); a call stopped there is a failed attempt
-            (``budget_capped`` True until the next solve), never an unconverged answer.
+        warm_start: ``"workspace"`` (persistent ``daqp.Model``, the previous working set; fastest on the kinematic
+            tick) or ``"dual"`` (one-shot ``daqp.solve`` from the previous dual variables; fastest on the
+            inverse-dynamics QP, many inequalities).
+        **settings: DAQP settings (e.g. ``eps_prox``, ``primal_tol``), ``iter_limit`` default :data:`ITERATION_LIMIT`.
+            A call stopped by its limit (:meth:`call_limit`) is a failed attempt, never an unconverged answer.
 
     Raises:
         InvalidInputError: unknown ``warm_start``.
@@ -85,7 +66,6 @@ class DaqpBackend(QPBackend):
         self._daqp = daqp
         self.tolerance = tolerance
         self.warm_start = warm_start
-        # an iteration cap, so that one call's work is bounded (DAQP's default is 10 000)
         self.settings = {"iter_limit": ITERATION_LIMIT, **settings}
         if self.settings.get("eps_prox", 0.0) > 0.0:
             self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
@@ -93,39 +73,26 @@ class DaqpBackend(QPBackend):
         self._cold_outcome = None
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
-        #: DAQP iterations of the last solve attempt (every DAQP call it made; QPBackend.solve resets it).
+        #: DAQP iterations of the last solve attempt (every call it made).
         self.last_iterations = 0
         #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
-        #: inequality rows; > 0 at an upper bound, < 0 at a lower one, 0 off its working set), else None.
+        #: inequality rows; > 0 at an upper side, < 0 at a lower one), else None.
         self.last_multipliers: np.ndarray | None = None
-        #: a DAQP call of the current solve stopped at the tick work's iteration limit (:meth:`call_limit`), below
-        #: the settings' own ``iter_limit``; the solve's remaining calls are then skipped (failed attempts).
+        #: a call of the current solve stopped at the tick work's or the deadline's limit: no further call
         self.budget_capped = False
         self._model_limit = None  # the iteration limit set on the persistent workspace
         self._oneshot_first = False  # the last solve's workspace calls failed and its one-shot call succeeded
-        #: CPU time (``time.thread_time`` of the calling thread) by which every DAQP call must end, ``math.inf``
-        #: (default): none. A finite deadline lowers each call's iteration limit to the iterations that fit in the
-        #: time left at ``iteration_cost`` seconds each (:meth:`call_limit`); a clock, so only a caller that accepts
-        #: an answer depending on the machine's speed sets it (the inverse-dynamics clock guard).
+        #: CPU time (``time.thread_time``) by which every call must end (``math.inf``: none; the inverse-dynamics
+        #: clock guard sets it), at max(``iteration_cost``, ``measured_iteration_cost``) s per iteration
         self.deadline = math.inf
-        #: the largest CPU time per iteration of this backend's recent calls under a deadline (s; 0 until
-        #: one): ``deadline`` sizes the calls at max(``iteration_cost``, this) (:meth:`_timed`)
-        self.measured_iteration_cost = 0.0
-        #: CPU time (s) of one DAQP iteration assumed by ``deadline`` (> 0).
+        self.measured_iteration_cost = 0.0  # :meth:`_timed`
         self.iteration_cost = DAQP_ITERATION_COST
-        #: a caller's cap on the iterations of each DAQP call (an integer ≥ 1), or None (default): none. A count, not
-        #: a clock; a call stopped there is a failed attempt that sets ``iterations_capped`` (not ``budget_capped``:
-        #: the solve's remaining calls still run).
+        #: a caller's cap on each call's iterations (int ≥ 1) or None; a call stopped there sets ``iterations_capped``
         self.call_iterations: int | None = None
-        #: DAQP's proximal outer iterations beyond each call's first (its ``nodes`` − 1), summed over every call since
-        #: construction (a count: a caller takes the difference across the calls it counts).
+        #: DAQP's proximal outer iterations beyond each call's first (``nodes`` − 1), summed since construction
         self.proximal_iterations = 0
-        #: DAQP settings of the calls on the cost-scaled QP (:meth:`solve_scaled`, the last retry of a failed solve)
-        #: over the backend's own (default: none). E.g. a smaller automatic proximal regularisation
-        #: (``{"eps_prox": -1e-8}``): the scaled Hessian is near singular, and at DAQP's default the proximal outer
-        #: iterations can outnumber half the call's iterations.
+        #: DAQP settings of :meth:`solve_scaled`'s calls over the backend's own (e.g. ``{"eps_prox": -1e-8}``)
         self.scaled_settings: dict = {}
-        #: a DAQP call of the current solve (:meth:`solve`, :meth:`solve_scaled`) stopped at ``call_iterations``.
         self.iterations_capped = False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
@@ -135,12 +102,11 @@ class DaqpBackend(QPBackend):
         return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
 
     def call_limit(self) -> int:
-        """Iteration limit of the next DAQP call: the settings' ``iter_limit`` (default :data:`ITERATION_LIMIT`),
-        lowered under a controller's counted tick work (``work`` with a finite cap) to the iterations left before
-        ``solves`` reaches :data:`WORK_LIMIT_FACTOR` × ``cap`` (the iterations of the attempt in progress and the
-        work's ``reserve`` counted, one solve kept for the call itself), at least :data:`MIN_CALL_ITERATIONS`; at most
-        ``call_iterations`` when set. A count, not a clock — unless ``deadline`` is finite: then also at most
-        (deadline − CPU time now) / ``iteration_cost``, at least :data:`MIN_CALL_ITERATIONS`."""
+        """Iteration limit of the next DAQP call: the settings' ``iter_limit``, at most ``call_iterations``, and under
+        a counted tick work (``work`` with a finite cap) at most the iterations left before ``solves`` reaches
+        :data:`WORK_LIMIT_FACTOR` × ``cap`` (``reserve`` and one solve for the call held back); with a finite
+        ``deadline`` also at most the iterations that fit before it. At least :data:`MIN_CALL_ITERATIONS` under
+        either."""
         limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
         if self.call_iterations is not None:
             limit = min(limit, int(self.call_iterations))
@@ -159,13 +125,9 @@ class DaqpBackend(QPBackend):
         return self._timed(lambda: self._daqp.solve(*args, **settings))
 
     def _timed(self, call) -> tuple:
-        """``call()`` (a DAQP solve returning (x, fval, exitflag, info)); under a finite ``deadline``, its CPU time
-        per iteration updates ``measured_iteration_cost``: raised at once to a call's cost (of at least
-        :data:`MEASURED_CALL_ITERATIONS` iterations), lowered by :data:`MEASURED_COST_DECAY` per cheaper call. An
-        iteration's cost varies several-fold on one QP (DAQP's proximal iterations on an ill-conditioned Hessian
-        cost ~5 × the nominal): the next calls of the tick and of the ticks after it are sized at what the
-        solver costs now, not at the nominal ``iteration_cost``. Every call adds its proximal outer iterations to
-        ``proximal_iterations``."""
+        """``call()`` (a DAQP solve: (x, fval, exitflag, info)), its proximal iterations counted; under a finite
+        ``deadline`` its CPU time per iteration updates ``measured_iteration_cost`` (an iteration's cost varies
+        several-fold on one QP: later calls are sized at what the solver costs now)."""
         timed = self.deadline != math.inf
         t0 = thread_time() if timed else 0.0
         out = call()
@@ -180,8 +142,7 @@ class DaqpBackend(QPBackend):
         return out
 
     def _note_exit(self, exitflag: int, limit: int) -> None:
-        """Record a call stopped by a lowered iteration limit: ``iterations_capped`` when the limit is the caller's
-        ``call_iterations``, else ``budget_capped`` (the tick's counted work or its deadline)."""
+        """A call stopped by a lowered limit: ``iterations_capped`` (``call_iterations``), else ``budget_capped``."""
         if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
             if self.call_iterations is not None and limit == int(self.call_iterations):
                 self.iterations_capped = True
@@ -215,10 +176,9 @@ class DaqpBackend(QPBackend):
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
+        self._cold_outcome = None  # (x, model, multipliers) once this call ran the cold path (_solve_cold reuses it)
         if self.warm_start == "dual":
-            self._cold_outcome = None
             return self._solve_dual(H, g, G, upper, lower)
-        self._cold_outcome = None  # (x,) once this call has run the cold path (_solve_cold reuses it)
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
         tried_oneshot = self._oneshot_first and self.cold_retry
@@ -231,8 +191,7 @@ class DaqpBackend(QPBackend):
             self._oneshot_first = False
             if self.budget_capped:
                 return None
-        warm = self._model is not None
-        if warm:
+        if self._model is not None:  # warm-started
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
             if limit != self._model_limit:
@@ -317,32 +276,22 @@ class DaqpBackend(QPBackend):
                 return x
         if self.budget_capped:
             return None  # the tick's work limit stopped this problem's cold solve: no retry
-        # the two retries below get at most the iterations left in the tick's counted work (call_limit), so that
-        # one failing solve cannot run two more DAQP calls to their full iteration cap past the tick's budget
+        # the retries below within the tick's counted work left (call_limit)
         limit = {**self.settings, "iter_limit": self.call_limit()}
-        if self.settings.get("primal_tol", DAQP_PRIMAL_TOL) < self.tolerance:
-            # a primal tolerance far below the accepted violation (e.g. 1e-9 on the inverse-dynamics QP) was
-            # measured to report feasible problems infeasible: once more with DAQP's primal_tol at the tolerance
-            relaxed = {**limit, "primal_tol": self.tolerance}
-            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **relaxed)
+        low = self.settings.get("primal_tol", DAQP_PRIMAL_TOL) < self.tolerance
+        if low or self.warm_start == "dual":
+            # DAQP's infeasibility verdict was measured wrong on feasible QPs with a primal tolerance far below the
+            # accepted violation (1e-9 on the ID QP), and at it on ill-conditioned ones (dual warm start): once more
+            # at the tolerance, resp. DUAL_RETRY_PRIMAL_FACTOR × it (the answer is held to ``tolerance`` all the same)
+            primal = self.tolerance if low else DUAL_RETRY_PRIMAL_FACTOR * self.tolerance
+            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense,
+                                                  **{**limit, "primal_tol": primal})
             self.last_iterations += int(info["iterations"])
             if exitflag >= 1:
+                if not low:
+                    self.last_multipliers = None
                 return x2
-            self._note_exit(exitflag, relaxed["iter_limit"])
-            if self.budget_capped:
-                return None
-            limit["iter_limit"] = self.call_limit()
-        elif self.warm_start == "dual":
-            # DAQP's infeasibility verdict with its primal tolerance at the accepted violation was seen wrong on
-            # ill-conditioned feasible QPs: once more at DUAL_RETRY_PRIMAL_FACTOR × tolerance (the answer is held to
-            # ``tolerance`` all the same, QPBackend.solve)
-            loose = {**limit, "primal_tol": DUAL_RETRY_PRIMAL_FACTOR * self.tolerance}
-            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense, **loose)
-            self.last_iterations += int(info["iterations"])
-            if exitflag >= 1:
-                self.last_multipliers = None
-                return x2
-            self._note_exit(exitflag, loose["iter_limit"])
+            self._note_exit(exitflag, limit["iter_limit"])
             if self.budget_capped:
                 return None
             limit["iter_limit"] = self.call_limit()
@@ -359,12 +308,9 @@ class DaqpBackend(QPBackend):
         return x
 
     def solve_scaled(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
-        """One cold DAQP call on the QP with its cost divided by max(1, |g|∞, |H|max) (the same minimiser; the last
-        retry of a failed solve, :meth:`_solve_cold`, asked on its own), its iteration limit from :meth:`call_limit`
-        (``scaled_settings`` over the backend's settings).
-
-        A solution's multipliers (unscaled) become ``last_multipliers`` and, with ``warm_start="dual"``, the next
-        solve's dual start.
+        """One cold DAQP call on the QP with its cost divided by max(1, |g|∞, |H|max) (the same minimiser),
+        ``scaled_settings`` over the backend's; a solution's (unscaled) multipliers become ``last_multipliers`` and,
+        with ``warm_start="dual"``, the next solve's dual start.
 
         Returns:
             x (n,) within [lb, ub] meeting every row to ``tolerance`` (the check of :meth:`QPBackend.solve`), or None.
@@ -388,7 +334,7 @@ class DaqpBackend(QPBackend):
         return xc
 
     def _limited(self, limit: int) -> dict:
-        """The settings with ``iter_limit`` = ``limit`` (the settings themselves when it is theirs)."""
+        """The settings with ``iter_limit`` = ``limit``."""
         return self.settings if limit == self.settings.get("iter_limit") else {**self.settings, "iter_limit": limit}
 
     def _solve_dual(self, H, g, G, upper, lower):

@@ -1,18 +1,14 @@
 """Infeasibility diagnosis: which hard constraints conflict, and by how much.
 
-Run only after a failed solve. Every hard row gets a slack and the slacks are penalised in L2 (an always-feasible
-QP, solved with DAQP directly):
+Run only after a failed solve. Every hard row gets a slack, penalised in L2 (an always-feasible QP, DAQP):
 
     min_{v, s}  ε‖v‖² + ‖s_eq‖² + ‖s_in‖² + ‖s_box‖²
     s.t.        A v − s_eq = b,    l ≤ C v − s_in ≤ u,    lb ≤ v − s_box ≤ ub     (bounded coordinates only)
 
-Its solution v_r is the velocity closest to satisfying everything in the least-squares sense (ε = 1e-8 only keeps
-the Hessian definite). Each constraint's *violation* is then evaluated on its own rows at v_r — equality
-max |A_c v_r − b_c|, inequality max(l_c − C_c v_r, C_c v_r − u_c, 0), box the same on its effective (priority-
-clipped) bounds — in the constraint's units (m/s, rad/s ...). Constraints violated by more than ``tol`` are the
-conflicting ones, reported largest first. An L2 penalty spreads the unavoidable violation over every constraint
-that takes part in the conflict (an L1 penalty would hide all but one of them), so both sides of a contradiction
-are named. Blocks with non-finite numbers are reported with violation ``nan``.
+Its solution v_r is the velocity closest to satisfying everything in the least-squares sense (ε = 1e-8 keeps the
+Hessian definite). Each constraint's violation is evaluated on its own rows at v_r, in its units; those above ``tol``
+conflict, reported largest first. L2 spreads the violation over every constraint of the conflict (L1 would hide all
+but one), so both sides of a contradiction are named. Blocks with non-finite numbers are reported with ``nan``.
 """
 
 from __future__ import annotations

@@ -1,29 +1,21 @@
 """The fallback ladder of a QP (:class:`FallbackChain`): which solver is asked after which, and under what rules.
 
-A controller hands the chain one :class:`~wbc.solvers.qp_data.QPData` per tick; the chain asks its first rung, the
-compiled solver when it has one (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`, ``fast``: its answer stands
-when the caller's check accepts it), then its backend and, when the backend finds no solution, the next steps in
-order, and returns a :class:`~wbc.solvers.qp_data.QPSolution` that names the solver and the step that answered. For
-a DAQP backend (``daqp``, and ``fast``, whose backend is DAQP):
+The chain asks the compiled solver first when it has one (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`: its
+answer stands when the caller's check accepts it), then its backend; for a DAQP backend (``daqp``, ``fast``):
 
 1. the **attempt**: one DAQP call (cold retry off), its iterations capped by the tick's budget;
-2. the **hard-set checks**: one DAQP call on the projection of the origin onto the hard set (and onto the relaxed hard
-   set): a set proved empty ends the ladder (every later step could only fail);
-3. the **scaled call**: one DAQP call with the cost divided by max(1, |g|∞, |H|max) (an ill-scaled cost);
-4. **quadprog** with the pinned variables and equality rows eliminated
-   (:func:`wbc.solvers.independent.solve_pinned_reduced`);
+2. the **hard-set checks**: DAQP on the projection of the origin onto the hard set (and the relaxed one): a set
+   proved empty ends the ladder;
+3. the **scaled call**: one DAQP call with the cost divided by max(1, |g|∞, |H|max);
+4. **quadprog**, pinned variables and equality rows eliminated (:func:`~wbc.solvers.independent.solve_pinned_reduced`);
 5. the backend's **retries** (its cold calls).
 
-A tick whose counted work cut step 3 or 4 on a set with a point resumes at them on the next tick (**resumed scaled
-call**, **resumed quadprog**). Any other backend gets a **second opinion** (quadprog, then one cold DAQP call,
-:func:`wbc.solvers.independent.second_opinion`). An answer that fails the caller's output check by the solver's
-precision is **refined** (:meth:`FallbackChain.refine`: polished on its active set, else quadprog's). The relaxed QP
-(the caller's relaxable rows dropped) has its own shorter ladder (:meth:`FallbackChain.solve_relaxed`).
-
-Every step after the attempt is bounded by the tick's counted work (:attr:`FallbackChain.tick_work`, in DAQP
-iterations, against :attr:`FallbackChain.tick_work_iterations`) or, with a clock guard, by the CPU time
-(:attr:`FallbackChain.tick_clock`): a count keeps the answer a function of the tick's inputs. The rules, the
-factors and their measurements: docs/inverse-dynamics-controller.md, "The fallback chain".
+A tick whose counted work cut step 3 or 4 on a set with a point resumes there next tick (**resumed scaled call**,
+**resumed quadprog**). Any other backend gets a **second opinion** (:func:`~wbc.solvers.independent.second_opinion`).
+:meth:`FallbackChain.refine` repairs an answer that fails the caller's output check; the relaxed QP has its own
+shorter ladder (:meth:`FallbackChain.solve_relaxed`). Every step after the attempt is bounded by the tick's counted
+work (in DAQP iterations) or, with a clock guard, by CPU time. The rules, factors and measurements:
+docs/inverse-dynamics-controller.md, "The fallback chain".
 """
 
 from __future__ import annotations
@@ -52,64 +44,47 @@ DAQP_SETTINGS = {"primal_tol": 1e-6, "warm_start": "dual"}
 
 
 def daqp_attempt_iterations(budget: float) -> int:
-    """Iteration cap of the first DAQP attempt on a tick's full QP, and of the cost-scaled call that follows a failed
-    one (:meth:`FallbackChain.solve`; when the hard set was found not empty, the attempt and that call
-    together take at most ``FallbackChain.SCALED_FEASIBLE_FACTOR`` times it), for a tick budget of ``budget``
-    seconds of CPU time: a third of the budget at
-    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, between :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`
-    and :data:`~wbc.solvers.daqp.ITERATION_LIMIT` (the latter for an unbounded budget). A count, not a clock."""
+    """Iteration cap of the DAQP attempt on a tick's full QP and of the scaled call after it, for a tick budget of
+    ``budget`` s of CPU time: a third of it at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration, within
+    [:data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`, :data:`~wbc.solvers.daqp.ITERATION_LIMIT`]. A count, not a clock."""
     if not np.isfinite(budget):
         return ITERATION_LIMIT
     return int(min(ITERATION_LIMIT, max(MIN_CALL_ITERATIONS, budget / (3.0 * DAQP_ITERATION_COST))))
 
 
-#: CPU time (s) of quadprog's solve of a failed ID QP assumed before one ran (clock guard,
-#: :attr:`FallbackChain.quadprog_cost`; a humanoid's QP, ~60 variables; benchmarks/README.md)
+#: CPU time (s) of quadprog's solve of a failed ID QP of :data:`QUADPROG_SIZE` variables, assumed before one ran
+#: (clock guard, :attr:`FallbackChain.quadprog_cost`; benchmarks/README.md)
 QUADPROG_COST = 2.5e-3
-#: variables of the QP whose quadprog solve costs :data:`QUADPROG_COST` (:func:`quadprog_work`)
 QUADPROG_SIZE = 60
-
-#: work counted for one DAQP call besides its iterations (its set-up: the arrays copied, the first factorisation),
-#: in iterations (:attr:`FallbackChain.tick_work`)
+#: work counted for one DAQP call besides its iterations (its set-up), in iterations
 DAQP_CALL_WORK = 30
-#: work counted for one proximal outer iteration of a DAQP call (beyond its first; DAQP's ``nodes`` − 1,
-#: :attr:`wbc.solvers.daqp.DaqpBackend.proximal_iterations`), in iterations: DAQP runs them on a near-singular
-#: Hessian (the cost-scaled QP, :meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`), each redoing the work of
-#: several iterations.
+#: work counted for one proximal outer iteration of a DAQP call beyond its first (DAQP's ``nodes`` − 1), in
+#: iterations: each redoes the work of several iterations (the near-singular Hessian of the cost-scaled QP)
 PROXIMAL_ITERATION_WORK = 5
-#: DAQP's automatic proximal regularisation on the cost-scaled QP of the ID (``eps_prox``, negative: used only when
-#: the Hessian is found singular; :attr:`wbc.solvers.daqp.DaqpBackend.scaled_settings`): after the scaling the
-#: Hessian's force-regularisation entries are ~1e-13, and DAQP's default (1e-6) dominates them, so that its proximal
-#: outer iterations (:data:`PROXIMAL_ITERATION_WORK` each) can number a large share of the call's iterations; a
-#: smaller regularisation keeps them few. The answer is checked to the backend's tolerance either way.
+#: DAQP's ``eps_prox`` on the ID's cost-scaled QP (negative: only when the Hessian is found singular): the scaled
+#: force regularisation (~1e-13) is dominated by DAQP's default 1e-6, and a smaller one keeps the proximal outer
+#: iterations few. The answer is checked to the backend's tolerance either way.
 SCALED_EPS_PROX = -1e-8
 
 
 def tick_work_iterations(budget: float) -> float:
-    """The work of a tick budget of ``budget`` seconds of CPU time (> 0, validated by the caller:
-    :attr:`wbc.controllers.inverse_dynamics.InverseDynamicsController.budget`; ``math.inf``: unbounded) counted in DAQP
-    iterations (at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of
-    :attr:`FallbackChain.tick_work`: budget / DAQP_ITERATION_COST, a float; ``math.inf`` for an unbounded
-    budget (nothing counted stops a stage)."""
+    """A tick budget of ``budget`` s of CPU time (> 0; ``math.inf``: unbounded) in DAQP iterations (at
+    :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` s each), the unit of :attr:`FallbackChain.tick_work`."""
     return budget / DAQP_ITERATION_COST if np.isfinite(budget) else math.inf
 
 
 def quadprog_work(n: int) -> float:
-    """Work counted for quadprog's solve of a failed ID QP of ``n`` ≥ 0 variables, in DAQP iterations (a float ≥ 0):
-    :data:`QUADPROG_COST` (s) scaled by (n / :data:`QUADPROG_SIZE`)³ (the order of its dense factorisations,
-    Goldfarb & Idnani 1983), divided by :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` (s). A count from the QP's
-    size, not a clock."""
+    """Work counted for quadprog's solve of a QP of ``n`` variables, in DAQP iterations: :data:`QUADPROG_COST` ×
+    (n / :data:`QUADPROG_SIZE`)³ (its dense factorisations, Goldfarb & Idnani 1983) / DAQP_ITERATION_COST."""
     return QUADPROG_COST * (n / QUADPROG_SIZE) ** 3 / DAQP_ITERATION_COST
-
 
 
 class FallbackChain:
     """The fallback ladder (module docstring) over one backend, with its per-tick budget and counters.
 
     Args:
-        backend: the backend of the ladder (:class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve``
-            method; its failure then stands).
-        compiled: the compiled solver asked before it (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`), or None.
+        backend: a :class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve`` method (its failure stands).
+        compiled: the :class:`~wbc.solvers.compiled_id.CompiledIDSolver` asked before it, or None.
 
     Attributes (the tick's budget, set by the controller):
         tick_work_iterations: the tick budget in DAQP iterations (:func:`tick_work_iterations`; ``math.inf``).
@@ -125,7 +100,7 @@ class FallbackChain:
 
     Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
     ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
-    ``output_quadprog``, ``quadprog_skipped``, ``retries_skipped``, ``checks_skipped``, ``infeasible_by_check``,
+    ``output_quadprog``, ``quadprog_skipped``, ``checks_skipped``, ``infeasible_by_check``,
     ``relaxed_infeasible_by_check``.
     """
 
@@ -133,29 +108,23 @@ class FallbackChain:
         self.backend = backend
         self.compiled = compiled
         self.compiled_reason = ""
-        #: run the backend's independent re-solve (:meth:`wbc.solvers.base.QPBackend.confirm`) before declaring a
-        #: failure; False by default: it costs many control periods and belongs off the control path
-        self.confirm_failures = False
         self._takes_confirm: tuple = (None, False)
         self._confirm_kw  # the backend's signature read here, not inside the first tick
-        #: a backend other than DAQP reports no solution: quadprog, then one cold DAQP call, are asked
-        self.second_opinion_enabled = True
+        self.second_opinion_enabled = True  # :meth:`_solve_checked`
         self.daqp_attempt_iterations = ITERATION_LIMIT
         self.tick_work_iterations = math.inf
         self.tick_clock: tuple[float, float] | None = None
-        #: CPU time (s) quadprog's solve is expected to take (clock guard): :data:`QUADPROG_COST` until one ran, then
-        #: raised at once to a solve's CPU time, lowered by :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per
-        #: cheaper one
+        #: CPU time (s) quadprog's solve is expected to take (clock guard): raised at once to a solve's, lowered by
+        #: :data:`~wbc.solvers.daqp.MEASURED_COST_DECAY` per cheaper one
         self.quadprog_cost = QUADPROG_COST
         #: the last failed full QP's hard set was proved empty: the next full QP's is checked before the attempt
         self.last_set_empty = False
-        #: the counted work cut a failed full QP whose hard set has a point: the next full QP starts with the
-        #: scaled call (:meth:`_resume_scaled`), and keeps starting so while that call answers
+        #: the counted work cut a failed full QP whose hard set has a point: the next ones start with the scaled call
         self.resume_scaled = False
         self.hard_set_x = np.zeros(0)
         for name in ("scaled_solves", "resumed_solves", "pinned_reduced_solves", "relaxed_quadprog_solves",
                      "second_opinion_solves", "output_polished", "output_quadprog", "quadprog_skipped",
-                     "retries_skipped", "checks_skipped", "infeasible_by_check", "relaxed_infeasible_by_check"):
+                     "checks_skipped", "infeasible_by_check", "relaxed_infeasible_by_check"):
             setattr(self, name, 0)
         self._daqp_check: DaqpBackend | None = None
         self.begin_tick()
@@ -167,18 +136,13 @@ class FallbackChain:
         self.hard_set_point = False
         self.relaxed_set_feasible: bool | None = None
         self.relaxed_bounds: tuple | None = None
-        # this tick's check of the relaxed hard set ended before its iteration limit (its verdict is what the same
-        # DAQP call on the same set gives again: solve_relaxed does not repeat it)
+        # this tick's check of the relaxed hard set ended before its iteration limit (solve_relaxed does not repeat it)
         self._relaxed_check_final = False
 
     def solve_relaxed(self, qp: QPData, *, same_tick: bool = False, formed: bool = True) -> QPSolution:
-        """The relaxed QP ``qp`` (the caller dropped its relaxable rows). ``same_tick``: it is the relaxed QP of this
-        tick's failed full QP (a relaxed hard set that tick proved empty raises at once); ``formed``: its bounds were
-        formed by the caller, not taken from :attr:`relaxed_bounds` (so an earlier check was not of them).
-
-        Raises:
-            SolverError: no step found a solution.
-        """
+        """The relaxed QP ``qp`` (the caller dropped its relaxable rows). ``same_tick``: of this tick's failed full QP
+        (a relaxed hard set proved empty raises at once); ``formed``: its bounds are not :attr:`relaxed_bounds`.
+        Raises SolverError: no step found a solution."""
         if formed:
             self._relaxed_check_final = False
         if same_tick and self.relaxed_set_feasible is False:
@@ -186,7 +150,7 @@ class FallbackChain:
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
         if isinstance(self.backend, DaqpBackend):
-            return self._relaxed_daqp(*qp)
+            return self._relaxed_daqp(qp)
         return self._solve_checked(*qp)
 
     # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain").
@@ -213,7 +177,7 @@ class FallbackChain:
     RETRY_CALLS = 4
 
     def _counting(self) -> bool:
-        """The tick's stages are stopped by its counted work: no clock guard, a finite :attr:`tick_work_iterations`."""
+        """No clock guard and a finite :attr:`tick_work_iterations`."""
         return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
 
     def _work_left(self, factor: float) -> float:
@@ -221,9 +185,8 @@ class FallbackChain:
         return factor * self.tick_work_iterations - self.tick_work
 
     def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
-        """:func:`wbc.solvers.independent.hard_set_check` with at most the iterations left below ``factor``
-        (:meth:`_work_left`, at most :data:`~wbc.solvers.daqp.ITERATION_LIMIT`), counted in :attr:`tick_work`;
-        None (not asked) when fewer than :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS` are left."""
+        """:func:`~wbc.solvers.independent.hard_set_check` within the work left below ``factor``, counted; None
+        (not asked) when fewer than MIN_CALL_ITERATIONS are left."""
         left = self._work_left(factor)
         if left < MIN_CALL_ITERATIONS:
             return None
@@ -235,32 +198,51 @@ class FallbackChain:
         return verdict
 
     def _retry_iterations(self, factor: float) -> int | None:
-        """Iteration cap of each retry call when the work is counted: the work left below ``factor`` shared by
-        :attr:`RETRY_CALLS` calls less each call's :data:`DAQP_CALL_WORK`, at least
-        :data:`~wbc.solvers.daqp.MIN_CALL_ITERATIONS`; None (no cap) when nothing is counted."""
+        """Iteration cap of each retry call: the work left below ``factor`` shared by :attr:`RETRY_CALLS` calls;
+        None when nothing is counted."""
         left = self._work_left(factor)
         if not math.isfinite(left):
             return None
         return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
 
     def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s) in DAQP iterations: iterations, proximal ones, the call's own."""
+        """Work of the backend's last DAQP call(s), in DAQP iterations."""
         return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
                 + DAQP_CALL_WORK)
 
-    def _retry_work(self, backend: DaqpBackend, calls: int, proximal: int) -> float:
-        """Work counted for the retries, each call capped at ``calls``, and proximal iterations past ``proximal``."""
-        return (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
-                + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
+    def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
+        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step), its DAQP calls capped at
+        ``calls`` (None: no cap) and ending by the CPU time ``deadline`` (None: as set), its work counted: the retries
+        at ``calls`` per call (nothing when None), an attempt as it ran. (QPSolution, None) or (None, SolverError)."""
+        backend = self.backend
+        retry = backend.cold_retry
+        backend.cold_retry = retry and step == "retries"
+        if deadline is not None:
+            backend.deadline = deadline
+        backend.call_iterations = calls
+        proximal = backend.proximal_iterations
+        try:
+            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
+        except SolverError as exc:
+            return None, exc
+        finally:
+            backend.cold_retry = retry
+            backend.call_iterations = None
+            if deadline is not None:
+                backend.deadline = math.inf
+            if step != "retries":
+                self.tick_work += self._call_work(backend, proximal)
+            elif calls is not None:
+                self.tick_work += (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
+                                   + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
 
     @property
     def retry_deadline(self) -> float:
-        """CPU time after which a failed full QP gets no quadprog solve or retry: start + ``QUADPROG_DEADLINE``
-        × budget of :attr:`tick_clock`; ``math.inf`` without a clock guard."""
+        """CPU time after which a failed full QP gets no quadprog solve or retry (``math.inf``: no clock guard)."""
         return self._deadline(self.QUADPROG_DEADLINE)
 
     def _deadline(self, factor: float) -> float:
-        """start + factor × budget of :attr:`tick_clock` (``math.inf`` without a clock guard)."""
+        """start + factor × budget of :attr:`tick_clock` (``math.inf`` without one)."""
         clock = self.tick_clock
         return math.inf if clock is None else clock[0] + factor * clock[1]
 
@@ -269,39 +251,30 @@ class FallbackChain:
         backend = self.backend
         if self._takes_confirm[0] is not backend:  # a backend assigned after construction
             self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
-        return {"confirm": self.confirm_failures} if self._takes_confirm[1] else {}
+        # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
+        return {"confirm": False} if self._takes_confirm[1] else {}
 
-    def _relaxed_daqp(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
+    def _relaxed_daqp(self, qp: QPData) -> QPSolution:
         """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
-        SolverError: no solution (the message says whether the relaxed hard set was proved empty, and whether a call
-        stopped at the tick's deadline)."""
+        SolverError."""
+        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
         counting = self._counting()
         retry = backend.cold_retry
         backend.deadline = end
         try:
-            backend.cold_retry = False
-            if counting:  # the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
-                backend.call_iterations = max(MIN_CALL_ITERATIONS, int(min(
-                    self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT)))
-            proximal = backend.proximal_iterations
-            try:
-                return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
-                                  "attempt")
-            except SolverError as exc:
-                first = exc
-            finally:
-                backend.cold_retry = retry
-                backend.call_iterations = None
-                self.tick_work += self._call_work(backend, proximal)
+            # counted: the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
+            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
+                self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT))) if counting else None)
+            if sol is not None:
+                return sol
             if counting:
                 left = self._work_left(self.RELAXED_WORK)
             else:
                 left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
             if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless the full QP's failure already checked it to a verdict (a check that
-                # ended undecided before its iteration limit is not asked again: the same call gives the same)
+                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
                 feasible = self.relaxed_set_feasible
                 if feasible is None and not self._relaxed_check_final and counting:
                     feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
@@ -319,22 +292,13 @@ class FallbackChain:
                     self.budget_cut = True
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
-                backend.call_iterations = calls
-                proximal = backend.proximal_iterations
-                try:
-                    return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name,
-                                      "retries")
-                except SolverError as exc:
-                    if backend.budget_capped or feasible is not True:
-                        raise
-                    first = exc
-                finally:
-                    backend.call_iterations = None
-                    if calls is not None:
-                        self.tick_work += self._retry_work(backend, calls, proximal)
-                # a point of the relaxed hard set was found, so the relaxed QP has a minimiser that DAQP missed:
-                # quadprog (pinned variables and equalities eliminated), when it is expected to end by ``end`` and,
-                # counted, its work fits below RELAXED_WORK
+                sol, exc = self._call(qp, "retries", calls)
+                if sol is not None:
+                    return sol
+                if backend.budget_capped or feasible is not True:
+                    raise exc
+                first = exc
+                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
                 if thread_time() + self.quadprog_cost > end:
                     self.budget_cut = True
                     raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
@@ -364,11 +328,10 @@ class FallbackChain:
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
-        """The full QP ``qp``: the compiled solver first (when the chain has one, unless ``skip_compiled`` gives why
-        not), its answer returned when ``check(x)`` (the caller's output check) returns ''; else that text or its
-        failure is :attr:`compiled_reason`, its cap is counted in :attr:`tick_work`, and the ladder's answer
-        (:meth:`_ladder`) warm-starts its next call. ``relax(l, u, lb, ub)``: copies of the relaxed QP's bounds (for
-        the check of its hard set). Raises SolverError: no step found a solution (the message says why)."""
+        """The full QP ``qp``: the compiled solver first (unless ``skip_compiled`` says why not), its answer returned
+        when ``check(x)`` returns ''; else that text or its failure is :attr:`compiled_reason`, and the ladder's
+        answer warm-starts its next call. ``relax(l, u, lb, ub)``: copies of the relaxed QP's bounds (for the check of
+        its hard set). Raises SolverError: no step found a solution (the message says why)."""
         compiled = self.compiled
         self.compiled_reason = ""
         if compiled is None:
@@ -396,8 +359,7 @@ class FallbackChain:
         return sol
 
     def _ladder(self, qp: QPData, relax: Callable | None) -> QPSolution:
-        """The ladder (module docstring); after a tick whose counted work cut a QP whose hard set has a point
-        (:attr:`resume_scaled`), starting at the scaled call, then quadprog when its count fits. Raises SolverError."""
+        """The ladder (module docstring), or its resumption (:attr:`resume_scaled`). Raises SolverError."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
@@ -420,9 +382,8 @@ class FallbackChain:
             raise
 
     def _resume_scaled(self, backend: DaqpBackend, qp: QPData) -> np.ndarray | None:
-        """The first step of a full QP after a tick whose counted work cut one with a point in its hard set
-        (:attr:`resume_scaled`): one scaled call of at most ``SCALED_FEASIBLE_FACTOR`` ×
-        :attr:`daqp_attempt_iterations` iterations. Its checked x, or None (and :attr:`resume_scaled` cleared)."""
+        """One scaled call of at most SCALED_FEASIBLE_FACTOR × :attr:`daqp_attempt_iterations` iterations: its
+        checked x, or None (:attr:`resume_scaled` cleared)."""
         proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
         x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), qp)
@@ -434,10 +395,8 @@ class FallbackChain:
         return x
 
     def _stages(self, qp: QPData, relax: Callable | None) -> QPSolution:
-        """The ladder of the module docstring on the full QP ``qp``; ``relax`` forms the relaxed bounds for the check
-        of the relaxed hard set (None: not checked). The order, the counted work and the clock guard's deadlines:
-        docs/inverse-dynamics-controller.md, "The fallback chain". Raises SolverError: the backend's, extended with
-        why the ladder ended, when no step found a solution."""
+        """The ladder's steps on the full QP ``qp`` (``relax``: as :meth:`solve`). Raises SolverError: the backend's,
+        extended with why the ladder ended."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
@@ -447,7 +406,7 @@ class FallbackChain:
         checked = False
         if not guarded and self.last_set_empty:
             # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
-            # skips DAQP's attempt, which could only fail; a check it would have had after it anyway)
+            # skips DAQP's attempt, which could only fail)
             self.last_set_empty = False
             known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
             checked = True
@@ -455,31 +414,19 @@ class FallbackChain:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
                                       backend, qp, relax, known, checked=True)
         retry = backend.cold_retry
-        backend.cold_retry = False
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)  # math.inf without a clock guard
         # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
-        backend.call_iterations = cap
-        proximal = backend.proximal_iterations
-        try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
-        except SolverError as exc:
-            first = exc
-            attempted = backend.last_iterations  # the attempt's DAQP iterations
-            if backend.budget_capped:
-                self.budget_cut = True
-        finally:
-            backend.cold_retry = retry
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            self.tick_work += self._call_work(backend, proximal)
+        sol, first = self._call(qp, "attempt", cap, self._deadline(self.FULL_QP_DEADLINE))
+        if sol is not None:
+            return sol
+        attempted = backend.last_iterations  # the attempt's DAQP iterations
+        if backend.budget_capped:
+            self.budget_cut = True
         if not guarded:
             feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
             if cap is not None:
-                # DAQP's verdict or its count on a set not proved empty (cycling, "infeasible" or hundreds of
-                # iterations, seen on ill-scaled costs): the cost-scaled call before quadprog's solve; on a set
-                # proved not empty (a minimiser exists) with what the attempt left of SCALED_FEASIBLE_FACTOR × cap;
-                # at most the tick's counted work left
+                # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set
+                # with a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
                 scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
                               else cap)
                 left = self._work_left(self.FAILURE_WORK)
@@ -504,9 +451,8 @@ class FallbackChain:
                 raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
                                   f"tick budget spent (clock guard)")
             end = self._deadline(self.CHECK_END)
-            # an attempt stopped at its deadline (not a verdict: e.g. a cold solve with |g| ~ 1e6 that needs ~1000
-            # iterations, ~60 with its cost scaled) goes to the cost-scaled call first; an infeasibility verdict to
-            # the hard-set check first (most failed full QPs are infeasible: one cheap call ends them)
+            # an attempt stopped at its deadline (not a verdict: e.g. |g| ~ 1e6) goes to the cost-scaled call first, an
+            # infeasibility verdict to the hard-set check first (most failed full QPs are infeasible)
             capped = backend.budget_capped
             for step in (("scaled", "check") if capped else ("check", "scaled")):
                 if thread_time() >= self._deadline(self.CHECK_DEADLINE):
@@ -519,15 +465,9 @@ class FallbackChain:
                         raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
                                           f"it): quadprog and the backend's retries skipped (clock guard)")
                     continue
-                # not proved empty: DAQP's false infeasibility (an ill-conditioned Hessian) or a capped attempt —
-                # the cost-scaled call (the backend's last retry, a fraction of quadprog's cost)
-                backend.deadline = end
-                try:
-                    x = backend.solve_scaled(H, g, A, b, C, l, u, lb, ub)
-                finally:
-                    backend.deadline = math.inf
+                # not proved empty: DAQP's false infeasibility (ill-conditioned Hessian) or a capped attempt
+                x = self._solve_scaled(backend, None, qp, end)
                 if x is not None:
-                    self.scaled_solves += 1
                     return QPSolution(x, backend.name, "scaled call")
             if thread_time() >= self.retry_deadline:
                 self.checks_skipped += 1
@@ -541,62 +481,46 @@ class FallbackChain:
                                   f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
                                   f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
         work = quadprog_work(H.shape[0])
-        skipped = not guarded and work > self._work_left(self.QUADPROG_WORK)
-        if skipped:
-            # the tick's counted work leaves too little for quadprog's solve (which cannot be stopped once started)
+        if not guarded and work > self._work_left(self.QUADPROG_WORK):
+            # too little counted work left for quadprog's solve (which cannot be stopped once started), and so for the
+            # retries after it
             self.quadprog_skipped += 1
             self.budget_cut = True
-            quadprog = (f"no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP iterations) and "
-                        f"quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets")
-        else:
-            c0 = thread_time()
-            x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-            self.tick_work += work
-            if guarded:
-                cost = thread_time() - c0
-                self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-            if x is not None:
-                self.pinned_reduced_solves += 1
-                return QPSolution(x, "quadprog", "quadprog")
-            quadprog = "quadprog found no solution either"
-        if skipped:
-            # the backend's retries (up to RETRY_CALLS DAQP calls) come after quadprog: the count that had no room for
-            # quadprog has none for them (they answer a quadprog failure: its certificate is not final)
-            self.retries_skipped += int(retry)
-            raise SolverError(f"{first}; {quadprog}" + ("; the backend's retries skipped with it" if retry else ""))
+            raise SolverError(f"{first}; no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP "
+                              f"iterations) and quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets"
+                              + ("; the backend's retries skipped with it" if retry else ""))
+        c0 = thread_time()
+        x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
+        self.tick_work += work
+        if guarded:
+            cost = thread_time() - c0
+            self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+        if x is not None:
+            self.pinned_reduced_solves += 1
+            return QPSolution(x, "quadprog", "quadprog")
+        quadprog = "quadprog found no solution either"
         if not retry:
             raise first
         if thread_time() >= self.retry_deadline:
-            self.retries_skipped += 1
             self.budget_cut = True
             raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: tick budget spent (clock guard)")
         calls = None if guarded else self._retry_iterations(self.FAILURE_WORK)
         if calls is not None and self._work_left(self.FAILURE_WORK) < MIN_CALL_ITERATIONS:
-            self.retries_skipped += 1
             self.budget_cut = True
             raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
                               f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
-        backend.deadline = self._deadline(self.FULL_QP_DEADLINE)
-        backend.call_iterations = calls
-        proximal = backend.proximal_iterations
-        try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "retries")
-        except SolverError:
-            if backend.budget_capped or backend.iterations_capped:
-                self.budget_cut = True
-            raise
-        finally:
-            backend.deadline = math.inf
-            backend.call_iterations = None
-            if calls is not None:
-                self.tick_work += self._retry_work(backend, calls, proximal)
+        sol, exc = self._call(qp, "retries", calls, self._deadline(self.FULL_QP_DEADLINE))
+        if sol is not None:
+            return sol
+        if backend.budget_capped or backend.iterations_capped:
+            self.budget_cut = True
+        raise exc
 
     def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable | None,
                          full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP ``qp`` without a clock guard: the full set (unless ``checked``: its
-        verdict ``full``), then, not found to have a point and given ``relax``, the relaxed set. A set proved empty
-        sets :attr:`last_set_empty` and raises SolverError (``first`` extended). Returns True when a point of the full
-        hard set was found, else False."""
+        """The hard-set checks of a failed full QP (counted): the full set (unless ``checked``: its verdict ``full``),
+        then the relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a
+        point."""
         if not checked:
             full = self._set_check(*qp[2:], self.FAILURE_WORK)
         if full is True:
@@ -618,9 +542,8 @@ class FallbackChain:
 
     def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable,
                            iter_limit: int) -> None:
-        """Check the relaxed hard set of ``qp`` (its bounds from ``relax``, at most ``iter_limit`` DAQP iterations):
-        sets :attr:`relaxed_set_feasible` and :attr:`relaxed_bounds`. Raises SolverError (``first`` extended) when it is
-        proved empty: so is the full one, and the relaxed QP is not solved."""
+        """Check the relaxed hard set of ``qp`` (sets :attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`); raises
+        SolverError (``first`` extended) when it is proved empty."""
         _, _, A, b, C, l, u, lb, ub = qp
         relaxed = relax(l, u, lb, ub)
         self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
@@ -633,23 +556,23 @@ class FallbackChain:
             raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
                               f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
 
-    def _solve_scaled(self, backend: DaqpBackend, cap: int, qp: QPData) -> np.ndarray | None:
-        """One cost-scaled DAQP call (:meth:`wbc.solvers.daqp.DaqpBackend.solve_scaled`) on ``qp`` of at most
-        ``cap`` iterations; its checked x (counted in :attr:`scaled_solves`), or None."""
+    def _solve_scaled(self, backend: DaqpBackend, cap: int | None, qp: QPData, end: float = math.inf):
+        """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations (None: no cap), ending by
+        the CPU time ``end``: its x, or None."""
         backend.call_iterations = cap
+        backend.deadline = end
         try:
             x = backend.solve_scaled(*qp)
         finally:
             backend.call_iterations = None
+            backend.deadline = math.inf
         if x is not None:
             self.scaled_solves += 1
         return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP on the QP (full or relaxed); when a :class:`~wbc.solvers.base.QPBackend`
-        reports no solution, the second opinion (:func:`wbc.solvers.independent.second_opinion`) unless
-        :attr:`second_opinion_enabled` is False: a proximal method's infeasibility test fires on feasible QPs whose
-        equality rows are nearly dependent. Raises SolverError: the backend's, when no solver found a solution."""
+        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails, the second opinion
+        (unless :attr:`second_opinion_enabled` is False). Raises the backend's SolverError."""
         backend = self.backend
         try:
             return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
@@ -671,11 +594,10 @@ class FallbackChain:
         return QPSolution(x, solver, "second opinion")
 
     def refine(self, x: np.ndarray, qp: QPData, accept: Callable, answered_by: str):
-        """Refine a full-QP answer ``x`` that failed the caller's output check by the solver's precision: polished on
-        its active set (:meth:`wbc.solvers.base.QPBackend.polish`), else quadprog's solve (not when quadprog gave it,
-        ``answered_by``) while the clock guard or the counted work leaves room. ``accept(x, solver)`` returns the
-        caller's solution of a candidate (``solver`` None: the polished one) that passes its check, else None.
-        Returns the first accepted candidate, or None."""
+        """Refine a full-QP answer ``x`` that failed the caller's output check: polished
+        (:meth:`wbc.solvers.base.QPBackend.polish`), else quadprog's (unless ``answered_by`` is quadprog) while the
+        clock or count leaves room. ``accept(x, solver)``: the caller's solution of a candidate that passes its check
+        (``solver`` None: the polished one), else None. Returns the first accepted candidate, or None."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):

@@ -1,12 +1,9 @@
 """The compiled exact backend, ``fast``: :class:`FastBackend`, the in-house active-set kernels with DAQP as fallback.
 
-A QP with equality rows and bounds only goes to :func:`wbc.solvers.box_eq.solve_box_eq_ws`, one with inequality
-rows to :func:`wbc.solvers.active_set.solve_qp_ws`, each warm-started from the previous call's working set. Either
-kernel ends only when every KKT condition holds (stationarity by construction, primal feasibility, dual sign,
-complementarity), so the returned x is the exact optimum; when it does not end within the iteration cap, when H is
-not positive definite or when the equalities are dependent, the call is handed to the
-:class:`~wbc.solvers.daqp.DaqpBackend` it extends. :func:`load_fast_kernels` loads the kernels (on-disk cache) once
-per process, at construction of a backend.
+A QP without rows C goes to :func:`wbc.solvers.box_eq.solve_box_eq_ws`, one with them to
+:func:`wbc.solvers.active_set.solve_qp_ws`, each warm-started. Either ends only at a KKT point (the exact optimum);
+a call that does not (iteration cap, H not positive definite, dependent equalities) goes to the
+:class:`~wbc.solvers.daqp.DaqpBackend` it extends.
 """
 
 from __future__ import annotations
@@ -25,26 +22,20 @@ __all__ = ["FastBackend", "load_fast_kernels"]
 
 
 class FastBackend(DaqpBackend):
-    """Compiled exact solver for bound- and equality-constrained QPs (module docstring); every other problem, and
-    every kernel call that does not end in a KKT point, is solved by the :class:`~wbc.solvers.daqp.DaqpBackend` it
-    extends (so a controller's hierarchy levels and safe-command fallback, built as fresh DAQP backends of the same
-    settings, take the general path).
+    """The compiled kernels of the module docstring, DAQP (the :class:`~wbc.solvers.daqp.DaqpBackend` it extends)
+    for every call they do not answer.
 
     Args:
-        tolerance: largest constraint violation accepted (constraint units), as for every backend.
+        tolerance: largest constraint violation accepted (constraint units).
         max_iter: working-set iterations before handing the problem to DAQP.
         kernel_rows: problems with inequality rows go to the kernel first (True) or to DAQP at once (False: the
-            inverse-dynamics QP, whose compiled tick has its own kernel; this one's iterations refactor the working
-            set, which costs more than DAQP on that QP: benchmarks/README.md, "Tick time bounded at both levels").
-        **settings: DAQP settings for the fallback (:class:`~wbc.solvers.daqp.DaqpBackend`).
+            inverse-dynamics QP, where DAQP is cheaper: benchmarks/README.md, "Tick time bounded at both levels").
+        **settings: DAQP settings for the fallback.
 
     Attributes:
         count_give_ups (bool): under a tick's counted work (``work``), a kernel attempt that gives up counts one
-            solve and the tick's later problems of its shape (variables, equality rows, inequality rows) go to DAQP
-            at once (:meth:`solve`; the tick told apart by ``work.ticks``). Default False: the kernel tried on every
-            call. The kinematic controller sets it on ticks without strict levels.
-        skip_give_ups (bool): the same without counting the attempt (the kinematic controller's ticks of strict
-            levels, whose weighted form's re-solves would each repeat the attempt).
+            solve and the tick's later problems of its shape go to DAQP at once. Default False.
+        skip_give_ups (bool): the same without counting the attempt.
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
         reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
@@ -75,23 +66,21 @@ class FastBackend(DaqpBackend):
             self._state = np.zeros(n, np.int8)
             self._x = np.empty(n)
             self._z = np.zeros(n)
-            self._ws_by_m: dict = {}  # workspaces per number of equality rows (a support switch goes back and
-            #                           forth between a few shapes: no allocation after the first of each)
+            self._ws_by_m: dict = {}  # workspaces per number of equality rows (a support switch revisits a few)
             self._p = -1
         self._n, self._m = n, m
         cached = self._ws_by_m.get(m)
         if cached is None:
             nu, eq_residual = np.zeros(m), np.empty(1)
-            # the box/equality kernel's arrays and workspace, plain tuples in the orders of BoxEqArrays and
-            # BoxEqSpace (see _kernel), built once per shape
+            # the box/equality kernel's BoxEqArrays and BoxEqSpace as plain tuples, built once per shape
             cached = self._ws_by_m[m] = (nu, eq_residual, (self._state, self._x, nu, self._z, eq_residual), (
                 np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
                 np.empty(m)))
         self._nu, self._eq_residual, self._box_arrays, self._box_space = cached
 
     def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
-        """One warm-started call of the kernel of the module docstring (by the rows of C); True when it ended at a
-        KKT point within ``tolerance`` (x in ``self._x``), else its working sets are cleared."""
+        """One warm-started kernel call; True when it ended at a KKT point within ``tolerance`` (x in ``self._x``),
+        else its working sets are cleared."""
         n, m, p = H.shape[0], A.shape[0], C.shape[0]
         if n != self._n or m != self._m:
             self._prepare_kernel(n, m)
@@ -100,14 +89,11 @@ class FastBackend(DaqpBackend):
                 self._p = p
                 self._rstate = np.zeros(p, np.int8)
                 self._mu = np.zeros(p)
-            # plain tuples (QPData, QPWarmArrays, QPLimits in order): numba's dispatcher types a plain tuple of arrays
-            # by its fingerprint, a namedtuple through Python's typeof (a call of a kernel of these arguments that
-            # returns at once: 4.3 µs with plain tuples, 9.7 µs with namedtuples, 5.8 µs with the 20 arrays and numbers)
+            # plain tuples (QPData, QPWarmArrays, QPLimits): numba types them faster (4.3 µs a call, namedtuples 9.7 µs)
             it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub),
                              (self._state, self._rstate, self._x, self._nu, self._mu, self._z, self._eq_residual),
                              (self.max_iter, 1e-12, 1e-12, 1e-24))
         else:
-            # the QP (QPData's order without C, l, u), BoxEqArrays, QPLimits, BoxEqSpace: plain tuples likewise
             it = solve_box_eq_ws((H, g, A, b, lb, ub), self._box_arrays, (self.max_iter, 1e-12, 1e-12, 1e-24),
                                  self._box_space)
         self.last_kernel_iterations = it
@@ -120,14 +106,11 @@ class FastBackend(DaqpBackend):
         return False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
-        """As :meth:`wbc.solvers.base.QPBackend.solve` (``confirm`` likewise). A kernel solution is returned as is: it
-        satisfies every KKT condition, lies inside the bounds by construction and its equality residual was checked in
-        the kernel against ``tolerance``; anything else goes through DAQP and the general check. A kernel solution
-        adds one solve to ``work``, as every solve attempt does; a give-up as ``count_give_ups`` / ``skip_give_ups``
-        say.
+        """As :meth:`wbc.solvers.base.QPBackend.solve`; a kernel solution (a KKT point inside the bounds, its residual
+        checked against ``tolerance``) is returned as is, anything else goes through DAQP and the general check.
 
         Raises:
-            SolverError: the DAQP fallback failed (see :meth:`wbc.solvers.base.QPBackend.solve`).
+            SolverError: the DAQP fallback failed.
         """
         p = C.shape[0]
         if p and not self.kernel_rows:
@@ -137,13 +120,10 @@ class FastBackend(DaqpBackend):
         gave_up = self._gave_up
         if (self.count_give_ups or self.skip_give_ups) and work is not None and gave_up is not None \
                 and gave_up[0] is work and gave_up[1] == work.ticks and gave_up[2] == shape:
-            # the kernel gave up on a problem of this shape earlier in this tick: the tick's re-solves of it (a
-            # relaxation ladder, a trust region, bounds pinned at 0) go to DAQP at once
-            pass
+            pass  # the kernel gave up on a problem of this shape earlier in this tick: its re-solves go to DAQP
         elif p and self._rows_failed:
-            # the kernel did not end in a KKT point on the previous call with rows: this one goes to DAQP at once
-            # and the kernel is tried again on the next (degenerate rows, e.g. self-collision rows on joints held
-            # at velocity bounds, defeat its pivoting for stretches of ticks)
+            # the kernel failed on the previous call with rows (degenerate rows defeat it for stretches of ticks):
+            # this one goes to DAQP, the next to the kernel again
             self._rows_failed = False
         elif self._kernel(H, g, A, b, C, l, u, lb, ub):
             if self.work is not None:
@@ -172,9 +152,8 @@ class FastBackend(DaqpBackend):
 
 @once_per_process
 def load_fast_kernels() -> float:
-    """Compile (or load from the on-disk cache) the kernels :class:`FastBackend` calls (with and without inequality
-    rows) and the shared ones of :mod:`wbc.solvers.linalg`, once per process; returns the seconds taken (later
-    calls: None at once)."""
+    """Compile (or load) the kernels :class:`FastBackend` calls, once per process; returns the seconds taken (later
+    calls: None)."""
     t0 = time.perf_counter()
     H = np.eye(2)
     s = np.zeros(2, np.int8)

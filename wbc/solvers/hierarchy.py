@@ -1,32 +1,20 @@
 """Strict task priorities: a cascade of least-squares QPs (lexicographic optimisation).
 
 Levels 1..p (``KinematicController.add_task(task, level=k)``, k = 0 highest) are each a stack of weighted task
-rows  J_k v ≈ v*_k  (J_k = diag(√w) J, v*_k = diag(√w) (ė* − K e)), below them the weighted soft level (every
-task added with ``level=None``, plus the damping ε‖v‖²). With 𝓗 the hard set (equalities A v = b, inequalities
-l ≤ C v ≤ u, bounds lb ≤ v ≤ ub), level k solves
+rows  J_k v ≈ v*_k, below them the weighted soft level (tasks with ``level=None``, plus the damping ε‖v‖²). With 𝓗
+the hard set (A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub), level k solves
 
     v_k = argmin_v ‖J_k v − v*_k‖²   s.t.  v ∈ 𝓗,   J_j v = J_j v_{k−1}  for every level j < k       (P_k)
 
-and the soft level solves min_v Σ_i ‖J_i v − v*_i‖²_W + ε‖v‖² under the same constraints for all p levels. The
-optimal set of (P_k) is exactly {v ∈ feasible set of (P_k) : J_k v = J_k v_k}: the cost is strictly convex in
-J_k v, so every minimiser has the same image J_k v. Fixing that image therefore optimises each lower level *within*
-the optimal set of the levels above, which is the lexicographic order of Kanoun, Lamiraux, Wieber, "Kinematic
-control of redundant manipulators: generalizing the task-priority framework to inequality tasks", IEEE T-RO
-27(4), 2011 (their cascade of QPs), restricted to equality tasks with hard inequality constraints; Escande, Mansard,
-Wieber, "Hierarchical quadratic programming", IJRR 33(7), 2014, solve the same problem in one factorisation.
-Every level's images are re-read from the latest solution, so the fixed rows are always consistent.
-
-An upper level that cannot be met (a target out of reach, two tasks of one level contradicting each other, a
-task against the hard set) is met as well as possible and never dropped: with the slack w_k = J_k v − v*_k,
-(P_k) is Kanoun et al.'s level  min ‖w_k‖²  s.t. hard set, J_k v − w_k = v*_k, the levels above at their optimal
-slacks  w_j = w_j*  (eliminating w_k gives the cost above; fixing J_j v fixes w_j = J_j v − v*_j). The achieved
-residual ‖w_k*‖ is returned per level; the hard set is never relaxed (only its infeasibility fails the tick).
-
-Regularisation only enters the last (soft) level: the upper levels have semidefinite Hessians J_kᵀJ_k and are
-solved exactly (DAQP's proximal-point iterations handle singular H; Arnström, Bemporad, Axehill, IEEE TAC 2022), so the
-upper levels' optimality is not biased by ε. Equality rows that are numerically dependent (a level repeating a
-contact, two levels sharing a direction) are dropped before each solve by QR with column pivoting and their
-residual is checked after the last one.
+and the soft level its cost under the same constraints for all p levels. Every minimiser of (P_k) has the same
+image J_k v (the cost is strictly convex in it), so fixing it optimises each lower level within the optimal set of
+the levels above: the lexicographic order of Kanoun, Lamiraux, Wieber, "Kinematic control of redundant
+manipulators: generalizing the task-priority framework to inequality tasks", IEEE T-RO 27(4), 2011, restricted to
+equality tasks (Escande, Mansard, Wieber, "Hierarchical quadratic programming", IJRR 33(7), 2014, solve it in one
+factorisation). A level that cannot be met is met as well as possible (its slack minimised) and never dropped; the
+hard set is never relaxed. Only the soft level is regularised (DAQP's proximal iterations handle the semidefinite
+J_kᵀJ_k). Numerically dependent equality rows are dropped before each solve (QR with column pivoting) and their
+residual checked after the last one.
 """
 
 from __future__ import annotations
@@ -46,6 +34,8 @@ __all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 _RANK_MEMO: list = []
 #: results kept in ``_RANK_MEMO``
 RANK_MEMO_SIZE = 6
+#: dgeqp3's workspace size per shape of Aᵀ (:func:`independent_rows`)
+_QP3_LWORK: dict[tuple, int] = {}
 #: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
 #: its dropped rows as band rows
 BAND_KEY = "band"
@@ -53,34 +43,17 @@ BAND_KEY = "band"
 
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
-    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only.
-
-    The last :data:`RANK_MEMO_SIZE` results are kept: a matrix equal entry for entry to one of them (and the same
-    ``rtol``) returns that result without a new factorisation (the same rows: the factorisation is a function of
-    the entries)."""
+    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only. The last :data:`RANK_MEMO_SIZE`
+    results are kept: a matrix equal to one of them (same ``rtol``) returns it without a new factorisation."""
     if A.shape[0] == 0:
         return np.zeros(0, dtype=int)
     for M, tol, rows in reversed(_RANK_MEMO):
         if tol == rtol and M.shape == A.shape and np.array_equal(M, A):
             return rows
-    rows = _independent_rows(A, rtol)
-    rows.setflags(write=False)
-    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
-        del _RANK_MEMO[0]
-    _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
-    return rows
-
-
-#: dgeqp3's workspace size per shape of Aᵀ (``_independent_rows``)
-_QP3_LWORK: dict[tuple, int] = {}
-
-
-def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
-    """:func:`independent_rows` computed (no memo)."""
     from scipy.linalg import lapack
 
-    # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls, with the same workspace query), without
-    # forming Q: only |R_ii| and the pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
+    # LAPACK's dgeqp3 directly (what scipy.linalg.qr(pivoting=True) calls), without forming Q: only |R_ii| and the
+    # pivots are needed (≈ 5 µs instead of ≈ 33 µs for 12 × 38 contact rows)
     At = np.array(A.T, dtype=float, order="F")  # a copy: dgeqp3 overwrites it
     lwork = _QP3_LWORK.get(At.shape)  # the workspace query's answer depends on the shape only
     if lwork is None:
@@ -92,7 +65,12 @@ def _independent_rows(A: np.ndarray, rtol: float) -> np.ndarray:
     diag = [abs(x) for x in qr.diagonal().tolist()]
     tol = rtol * max(diag[0], 1.0)
     rank = sum(1 for x in diag if x > tol)
-    return np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
+    rows = np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
+    rows.setflags(write=False)
+    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
+        del _RANK_MEMO[0]
+    _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
+    return rows
 
 
 def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rtol: float = 1e-3,
@@ -110,44 +88,29 @@ def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rto
         rank_rtol: relative rank tolerance of the stacked equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
-        stop: called before each level after the first, and after a failed solve of such a level; when it
-            returns True no further level is started and a failed level is not retried (a controller's counted
-            tick budget, :class:`wbc.solvers.base.TickWork`, whose backends bound their solver's iterations by the work
-            left): the cascade then returns the solution of the last level it solved (a point of the hard set,
-            optimal for that level and every level above it) and ``solve_lexicographic.last_cut`` is the number
-            of levels (soft level included) that were solved; None when every level was. The first level is
-            always solved. Default: every level.
-        memo: a dict the caller keeps across cascades of the same levels (the re-solves of a tick whose hard set
-            changed a little — a contact correction, a trust region — and the next ticks), or None. A level that
-            the last cascade solved only by its damped (or wide-band) retry starts with that retry (one solve
-            instead of the failing ones before it; should the undamped solve now succeed, the answer differs from
-            its by the damping's bias, relative 1e-9); a retry that fails is forgotten and the full sequence runs.
-            Under :data:`BAND_KEY` it keeps the equality rows A of the last cascade that had to be solved again
-            with its dropped (nearly dependent) rows as band rows: a cascade on an equal A starts with those bands
-            (one cascade instead of two; its answer then holds them within ±tolerance/2 even where the cascade
-            without them would have met them within the tolerance). Within a tick the re-solves (contact corrections,
-            trust regions) keep A; the next tick's A differs (unless the configuration did not move).
-        level_work: solves added to the backends' counted tick work (``QPBackend.work``, when set) for each level
-            started, besides those its QP solves count: the work of the cascade around a level's QP (the fixed
-            rows of the levels above, their rank check and band rows, the cost's scaling), so that ``stop`` and
-            the backends' work limits see it. Default 0.
+        stop: called before each level after the first, and after a failed solve of such a level (a controller's
+            counted tick budget); when it returns True the cascade returns the last solved level's solution (a point
+            of the hard set, optimal for every level above) and ``solve_lexicographic.last_cut`` is the number of
+            levels solved (None: every level). The first level is always solved.
+        memo: a dict the caller keeps across cascades of the same levels (a tick's re-solves and the next ticks), or
+            None. A level the last cascade solved only by its damped (or wide-band) retry starts with that retry (a
+            retry that fails is forgotten); under :data:`BAND_KEY` it keeps the equality rows A of the last cascade
+            that had to be solved with its dropped rows as band rows: a cascade on an equal A starts with those bands.
+        level_work: solves added to the backends' counted work (``QPBackend.work``) per level started: the work
+            around a level's QP, so that ``stop`` and the backends' limits see it.
 
-    Levels below the point where the kept equality rows and the rows of the levels above have rank nv (QR with
-    column pivoting, ``rank_rtol``) are not solved: every direction of v is then fixed, so each of them would
-    return the same v (within ±``band``); ``solve_lexicographic.last_determined`` is the first such level (the
-    soft level is ``len(levels)``), None when every level was solved.
+    Levels below the point where the kept equality rows and the levels above have rank nv are not solved (v is
+    fixed); ``solve_lexicographic.last_determined`` is the first such level (soft level: ``len(levels)``) or None.
 
     Returns:
         (v (nv,), residuals): the soft level's solution (or the last solved level's: ``stop``) and
         ‖J_k v − v*_k‖ per level.
 
     Raises:
-        SolverError: the first level's QP failed (the hard set has no solution: every level is a least-squares
-            problem, so a strict level that cannot be met is met as well as possible and never makes the tick
-            fail), or dropped (nearly dependent) hard rows cannot be held even as ±tolerance/2 band rows (the
-            cascade is solved once more with them as bands first). A lower level whose QP fails numerically is
-            solved again with the upper levels fixed to the backend's tolerance instead of ``band``, else left at
-            the previous level's solution (``solve_lexicographic.last_skipped`` lists such levels).
+        SolverError: the first level's QP failed (the hard set has no solution), or dropped (nearly dependent) hard
+            rows cannot be held even as ±``dependent_row_tolerance``/2 band rows. A lower level whose QP fails
+            numerically is solved again with the upper levels held to the backend's tolerance instead of ``band``,
+            else left at the previous level's solution.
     """
     H, g, A, b, C, l, u, lb, ub = qp
     keep = independent_rows(A, rank_rtol)
@@ -165,25 +128,21 @@ def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rto
                               final_backend, band, stop, memo, level_work)
         except SolverError:
             del memo[BAND_KEY]
-    if banded is not None:
-        v, skipped = banded
-    else:
-        v, skipped = _cascade(levels, QPData(H, g, A[keep], b[keep], C, l, u, lb, ub), backends, final_backend, band,
-                              stop, memo, level_work)
+    v = banded if banded is not None else _cascade(levels, QPData(H, g, A[keep], b[keep], C, l, u, lb, ub), backends,
+                                                   final_backend, band, stop, memo, level_work)
     if dropped and banded is None:
         residual = float(np.max(np.abs(A @ v - b)))
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
             try:
-                v, skipped = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub),
-                                      backends, final_backend, band, stop, memo, level_work)
+                v = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub), backends,
+                             final_backend, band, stop, memo, level_work)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
             if memo is not None:
                 memo[BAND_KEY] = np.array(A, dtype=float)
-    solve_lexicographic.last_skipped = skipped
     return v, [float(np.linalg.norm(J @ v - t)) for J, t in levels]
 
 
@@ -200,9 +159,7 @@ def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.nda
     """(H s, g s, s): a level's cost (H (n, n), g (n,)) divided by s⁻¹ = max(1, |g|∞, |H|max) when |g|∞ · ε (ε the
     machine epsilon) exceeds the backend's ``tolerance`` (its constraint units), else (H, g, 1.0). The same
     minimiser: only the solver's rounding changes (the error of H⁻¹(g + Aᵀλ) is ~|g|∞ ε)."""
-    # a hand target 1e6 m away at a gain of 1e4 gives |g| ~ 3e11: DAQP's workspace and one-shot calls of such a
-    # level with its ±band rows cycled (exit -2), ran to their iteration cap or called it infeasible (g1, kinematic
-    # fuzz seed 5000 episode 10: 70 of 153 level-1 QPs failed unscaled, 0 of 153 scaled, in 39 iterations each)
+    # a hand target 1e6 m away at a gain of 1e4 (|g| ~ 3e11) made DAQP cycle or misjudge a level with ±band rows
     top = float(np.max(np.abs(g), initial=0.0))
     if not top * np.finfo(float).eps > tolerance:
         return H, g, 1.0
@@ -225,11 +182,10 @@ def _retry(kind, Hk, gk, scale, tolerance, rest, l=None, u=None, Fv=None) -> tup
 
 def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=None, level_work=0.0):
     """The levels of :func:`solve_lexicographic` on the QP ``qp`` whose equality rows A, b are independent:
-    (v, skipped levels)."""
+    v."""
     H, g, A_kept, b_kept, C, l, u, lb, ub = qp
     fixed_J: list[np.ndarray] = []
     v = None
-    skipped: list[int] = []
     n = H.shape[0]
     determined = None  # first level whose solve is skipped: the levels above determine v
     solve_lexicographic.last_cut = None
@@ -246,7 +202,7 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             continue
         if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
-            return v, skipped
+            return v
         if level_work and backend.work is not None:
             backend.work.solves += level_work  # the level's rows, rank and band set-up around its QP
         if F is not None:
@@ -268,8 +224,6 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             try:
                 v = backend.solve(*_retry(first, Hk, gk, scale, backend.tolerance, rest, l, u,
                                           Fv if F is not None else None))
-                if first == "wide":
-                    skipped.append(k)
                 if J is not None:
                     fixed_J.append(J)
                 continue
@@ -277,7 +231,7 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
                 del memo[key]  # the hint failed: the full sequence below (which records what solves now)
                 if v is not None and stop is not None and stop():
                     solve_lexicographic.last_cut = k  # the budget ran out inside this level's solve
-                    return v, skipped
+                    return v
         try:
             v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
         except SolverError as exc:
@@ -286,7 +240,7 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
                 # work left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level, with the last
                 # solved level's v (a point of the hard set, optimal for every level above)
                 solve_lexicographic.last_cut = k
-                return v, skipped
+                return v
             hard_point = None
             if v is None:
                 # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned
@@ -311,31 +265,22 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
                     fixed_J.append(J)
                     continue
             if v is None:
-                # the first level failed twice on a feasible hard set: numerical failure of this level, v is the
-                # point of the hard set found above
+                # the first level failed twice on a feasible hard set (numerically): the hard set's point found above
                 v = hard_point
-                skipped.append(k)
-                if J is not None:
-                    fixed_J.append(J)
-                continue
-            # below the first level the problem is feasible by construction (the previous v meets every row);
-            # a failure is numerical (the ±band is degenerate): once more with a band at the solver's tolerance,
-            # else keep the previous level's v (optimal for every level above, feasible for the hard set)
-            v_prev = v
-            if fixed_J and first != "wide":
+            elif first != "wide":
+                # below the first level the problem is feasible by construction: a failure is numerical (a degenerate
+                # ±band): once more with a band at the solver's tolerance, else the previous level's v
                 try:
                     v = backend.solve(*_retry("wide", Hk, gk, scale, backend.tolerance, rest, l, u, Fv))
                     if memo is not None:
                         memo[key] = "wide"
                 except SolverError:
-                    v = v_prev
-            skipped.append(k)
+                    pass
         if J is not None:
             fixed_J.append(J)
     solve_lexicographic.last_determined = determined
-    return v, skipped
+    return v
 
 
-solve_lexicographic.last_skipped = []
 solve_lexicographic.last_determined = None
 solve_lexicographic.last_cut = None

@@ -1,10 +1,6 @@
-"""Independent re-solves and checks of a QP another backend reported infeasible: quadprog with the pinned variables
-and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two active-set solvers
-(:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_feasible`).
-
-The QP is that of every backend (:mod:`wbc.solvers.base`):
-
-    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+"""Independent re-solves and checks of a QP (:mod:`wbc.solvers.qp_data`) another backend reported infeasible: quadprog
+with the pinned variables and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two
+active-set solvers (:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_feasible`).
 """
 
 from __future__ import annotations
@@ -20,27 +16,20 @@ __all__ = ["hard_set_check", "hard_set_feasible", "second_opinion", "solve_pinne
 
 
 def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
-    """The QP of the module docstring with its pinned variables (lb_i = ub_i) eliminated and the inequality rows
-    left without a free variable dropped, solved by quadprog's Goldfarb–Idnani dual active-set method (Goldfarb,
-    Idnani, "A numerically stable dual method for solving strictly convex quadratic programs", Math. Programming
-    27, 1983) on the null space of the (independent) equality rows, else — no equality row, dependent ones, or no
-    checked answer there — on the free variables with the equalities as quadprog's first constraints: a second
-    solver for a problem a backend reported infeasible (e.g. DAQP on the inverse-dynamics QP of a released foot,
-    whose 12 forces are pinned at 0 and whose optimum has nearly as many active constraints as free variables).
+    """The QP with its pinned variables (lb_i = ub_i) eliminated and the rows left without a free variable dropped,
+    solved by quadprog's dual active-set method (Goldfarb, Idnani, "A numerically stable dual method for solving
+    strictly convex quadratic programs", Math. Programming 27, 1983) on the null space of the equality rows, else
+    (none, dependent ones, or no checked answer) with the equalities as quadprog's first constraints.
 
     Args:
         H (n, n) positive definite on the free variables, g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,):
             the QP (±inf for absent bounds). tolerance: largest scaled violation accepted
-            (:meth:`QPBackend.scaled_violation`).
-
-        details: also return why no solution was returned.
+            (:meth:`QPBackend.scaled_violation`). details: also return why no solution was returned.
 
     Returns:
-        x (n,) within [lb, ub] (pinned entries exactly at their value) meeting every row to ``tolerance``, or None
-        (a dropped row violated, quadprog's failure — infeasible, dependent equalities, H not positive definite —
-        or a solution that fails the check). With ``details``: (x or None, reason), reason '' for a solution,
-        ``infeasible`` (a dropped row violated, or quadprog found the constraints inconsistent: the dual
-        unbounded, Goldfarb–Idnani's infeasibility certificate), else ``failed``.
+        x (n,) within [lb, ub] (pinned entries exactly at their value) meeting every row to ``tolerance``, or None.
+        With ``details``: (x or None, reason), reason '' for a solution, ``infeasible`` (a dropped row violated, or
+        quadprog's infeasibility certificate), else ``failed``.
     """
     x, reason = _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
     return (x, reason) if details else x
@@ -62,8 +51,7 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
         return None, "infeasible"
     Cr, lr, ur = Cr[~empty], lr[~empty], ur[~empty]
     lbr, ubr = lb[free], ub[free]
-    # the equalities eliminated first (about half quadprog's work on a humanoid's ID QP); the QP as it is when that
-    # finds no checked answer
+    # the equalities eliminated first: about half quadprog's work on a humanoid's ID QP
     xr = _nullspace_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, tolerance)
     if xr is not None:
         x, reason = _checked(qp, pinned, xp, xr, tolerance)
@@ -76,8 +64,8 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
 
 
 def _checked(qp: QPData, pinned, xp, xr, tolerance):
-    """The full x (n,) of the QP ``qp`` from its pinned (``pinned`` (n,) bool: at ``xp``) and free parts (``xr``),
-    clipped to [lb, ub], when it meets every row to ``tolerance``: (x, ''), else (None, 'failed')."""
+    """(x, '') from the pinned (at ``xp``) and free (``xr``) parts, clipped, when x meets every row to ``tolerance``;
+    else (None, 'failed')."""
     H, g, A, b, C, l, u, lb, ub = qp
     x = np.empty(H.shape[0])
     x[pinned] = xp
@@ -111,11 +99,9 @@ _RANK_TOL = 1e-10
 
 
 def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
-    """quadprog on the QP with its equality rows eliminated (null-space method, Nocedal & Wright 2006, *Numerical
-    Optimization*, §16.2: x = x₀ + Z y with Aᵀ = [Y Z] [R; 0], A x₀ = b), the bounds becoming rows in y: each of
-    Goldfarb–Idnani's steps works on n − m variables instead of n, and the m steps that add the equalities are gone.
-    A row that the equalities fix (its image under Z ≈ 0) is dropped. Returns x (n,), or None when there is no
-    equality row, they are dependent, a dropped row is violated or quadprog fails (the dense solve decides then)."""
+    """quadprog with the equality rows eliminated (null-space method, Nocedal & Wright 2006, §16.2: x = x₀ + Z y,
+    Aᵀ = [Y Z] [R; 0], A x₀ = b), bounds becoming rows in y, rows the equalities fix dropped. x (n,), or None (no
+    or dependent equality rows, a dropped row violated, quadprog failed)."""
     import quadprog
 
     n, m = H.shape[0], A.shape[0]
@@ -152,18 +138,15 @@ def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
 
 def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None
                    ) -> tuple[np.ndarray | None, str]:
-    """Two active-set solvers asked about a QP another backend reported infeasible: quadprog with the pinned
-    variables eliminated (:func:`solve_pinned_reduced`), then one call of ``daqp_backend`` (no confirmation; a
-    cold :class:`DaqpBackend` with the given ``tolerance`` when None). A proximal or ADMM method declares a QP
-    primal infeasible when its primal residual stops decreasing (ProxQP: Bambade et al., "PROX-QP: Yet another
-    quadratic programming solver for robotics and beyond", RSS 2022, its infeasibility criterion with
-    ``eps_primal_inf``); that test can fire on feasible QPs with nearly dependent equality rows, where an
-    active-set solver's factorisation answers exactly.
+    """Two active-set solvers asked about a QP another backend reported infeasible: :func:`solve_pinned_reduced`,
+    then one call of ``daqp_backend`` (unconfirmed). A proximal method's infeasibility test (ProxQP: Bambade et al.,
+    "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS 2022) can fire on feasible QPs
+    with nearly dependent equality rows, where an active-set factorisation answers exactly.
 
     Args:
-        H, g, A, b, C, l, u, lb, ub: the QP of the module docstring (shapes as in :meth:`QPBackend.solve`).
+        H, g, A, b, C, l, u, lb, ub: the QP (shapes as in :meth:`QPBackend.solve`).
         tolerance: largest scaled row violation accepted (:meth:`QPBackend.scaled_violation`).
-        daqp_backend: the DAQP backend of the second attempt.
+        daqp_backend: the DAQP backend of the second attempt (None: a cold :class:`DaqpBackend` of ``tolerance``).
 
     Returns:
         (x (n,) within [lb, ub] meeting every row to ``tolerance``, name of the solver: ``quadprog`` or ``daqp``),
@@ -181,12 +164,9 @@ def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp
 
 def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
                       iter_limit: int = ITERATION_LIMIT) -> bool | None:
-    """Whether the constraints of a QP (module docstring) have a common point, by one cold DAQP call on the
-    projection of the origin onto them: min ½‖x‖² s.t. A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub. Its Hessian is the
-    identity, so DAQP's dual (whose infeasibility test is a dual ray) is as well conditioned as the rows are, unlike
-    the inverse-dynamics QP's (Hessian eigenvalues 1e-7 to 1e3: the force regularisation against the task weights),
-    where DAQP was seen to report feasible problems infeasible. A cheap question asked before a costly solve whose
-    outcome it decides (:meth:`wbc.formulations.acceleration.InverseDynamicsQP.solve` with a clock guard).
+    """Whether the constraints of a QP have a common point, by one cold DAQP call on the projection of the origin onto
+    them (min ½‖x‖²): with an identity Hessian DAQP's dual infeasibility test is as well conditioned as the rows,
+    unlike on the inverse-dynamics QP (Hessian eigenvalues 1e-7 to 1e3), where it was seen wrong.
 
     Args:
         A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,): the constraints (±inf for absent bounds).
@@ -205,20 +185,8 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
 
 def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit: int = ITERATION_LIMIT,
                    out: np.ndarray | None = None) -> tuple[bool | None, int]:
-    """:func:`hard_set_feasible` with the work it took, for a caller that counts a tick's work in iterations
-    (:class:`wbc.formulations.acceleration.InverseDynamicsQP`).
-
-    Args:
-        A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,), tolerance, iter_limit: as :func:`hard_set_feasible`.
-        out: (n,) when given, the point found is written there on a True verdict (untouched otherwise).
-
-    Returns:
-        (verdict, iterations): the return of :func:`hard_set_feasible` (True, False or None) and the DAQP call's
-        iteration count (an int ≥ 0).
-
-    Raises:
-        InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
-    """
+    """(:func:`hard_set_feasible`'s verdict, the DAQP call's iterations); ``out`` (n,): the point found is written
+    there on a True verdict. Raises InvalidInputError as :func:`hard_set_feasible`."""
     import daqp
 
     if isinstance(iter_limit, bool) or not isinstance(iter_limit, (int, np.integer)) or iter_limit < 1:

@@ -53,7 +53,7 @@ def cholesky_lower(M, k, rel_tol=0.0):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def forward_substitution(L, k, v):
-    """v ← L⁻¹ v in place, L lower triangular (leading k × k block), forward substitution (compiled)."""
+    """v ← L⁻¹ v in place, L lower triangular (leading k × k block)."""
     for i in range(k):
         t = v[i]
         for p in range(i):
@@ -63,8 +63,7 @@ def forward_substitution(L, k, v):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def backward_substitution(L, k, v):
-    """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), backward substitution (compiled), by rows of L
-    (x_i = v_i / L_ii, then v[:i] −= x_i L[i, :i]: contiguous, where the column form reads L with a stride)."""
+    """v ← L⁻ᵀ v in place, L lower triangular (leading k × k block), by rows of L (contiguous reads)."""
     for i in range(k - 1, -1, -1):
         xi = v[i] / L[i, i]
         v[i] = xi
@@ -76,7 +75,7 @@ def backward_substitution(L, k, v):
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def primal_from_multipliers(L, n, t, Y, nu, m, x):
     """x[:n] ← −L⁻ᵀ (t[:n] + Σ_k<m nu_k Y[k, :n]): the primal step of a Cholesky/Schur KKT solve (H = L Lᵀ, t = L⁻¹ g,
-    Y = L⁻¹ Aᵀ row by row, nu the equality multipliers), compiled; x may be t itself."""
+    Y = L⁻¹ Aᵀ row by row, nu the equality multipliers); x may be t itself."""
     for a in range(n):
         x[a] = t[a]
     for k in range(m):
@@ -104,13 +103,8 @@ def block_cost_gradient(H, g, x, i, nv):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_normal_equations(J, w, r, damping, H, g):
-    """H = ε I + Jᵀ diag(w) J and g = −Jᵀ diag(w) r: the weighted least-squares cost Σ_k w_k (J_k v − r_k)² + ε‖v‖²
-    of stacked task rows (the constant term dropped), written into H and g.
-
-    Args:
-        J (m, n): stacked task Jacobians; w (m,): row weights (≥ 0); r (m,): row velocity targets v*;
-        damping: ε; H (n, n), g (n,): out.
-    """
+    """H (n, n) = ε I + Jᵀ diag(w) J and g (n,) = −Jᵀ diag(w) r, written in place: the cost Σ_k w_k (J_k v − r_k)² +
+    ε‖v‖² of stacked task rows J (m, n), weights w (m,) ≥ 0, targets r (m,), ε = ``damping``."""
     n = H.shape[0]
     m = J.shape[0]
     for i in range(n):
@@ -138,10 +132,8 @@ def weighted_normal_equations(J, w, r, damping, H, g):
 
 @nb.njit(cache=True, nogil=True, inline="always")
 def clip_entry_into(lb, ub, i, lo, hi):
-    """Intersect the interval [lo, hi] (floats) with the running box entry lb[i], ub[i], in place, the new interval
-    clipped into the running one so that it yields where it would empty it: lb[i] ← min(max(lo, lb[i]), ub[i]),
-    ub[i] ← max(min(hi, ub[i]), lb[i]) (both computed from the running values; compiled, inlined into the compiled
-    callers: :func:`clip_box_into` and the joint-limit kernels of :mod:`wbc.constraints`)."""
+    """Intersect [lo, hi] with the running entry lb[i], ub[i] in place, yielding where it would empty it:
+    lb[i] ← min(max(lo, lb[i]), ub[i]), ub[i] ← max(min(hi, ub[i]), lb[i]) (both from the running values)."""
     cl = lb[i]
     cu = ub[i]
     lb[i] = min(max(lo, cl), cu)
@@ -150,9 +142,7 @@ def clip_entry_into(lb, ub, i, lo, hi):
 
 @nb.njit(cache=True, nogil=True)
 def clip_box_into(lb, ub, start, lo, hi):
-    """Intersect the box [lo, hi] with the running box lb[start:start+k], ub[start:start+k] (k = lo.size), the
-    new box clipped into the running one so that it yields where it would empty it:
-    lb ← min(max(lo, lb), ub), ub ← max(min(hi, ub), lb) (both computed from the running values)."""
+    """:func:`clip_entry_into` of each entry of [lo, hi] (k,) into lb[start:start+k], ub[start:start+k]."""
     for i in range(lo.shape[0]):
         clip_entry_into(lb, ub, start + i, lo[i], hi[i])
 
@@ -201,17 +191,9 @@ def _row_value_and_scale(M, i, x):
 @nb.njit("f8(f8[:], f8[:], f8[:, :], f8[:], f8[:, :], f8[:], f8[:], f8[:], f8[:])", cache=True, fastmath=FASTMATH,
          nogil=True)
 def scaled_row_violation(x, xc, A, b, C, l, u, lb, ub):
-    """Largest scaled violation of a QP's bounds and rows (:meth:`wbc.solvers.base.QPBackend.scaled_violation`, its
-    compiled body): the bound excess |x_j − xc_j| / max(1, |the crossed bound|), each equality row
-    |A_i xc − b_i| / max(1, |b_i|, Σ_j |A_ij xc_j|) and each inequality row's excess over [l_i, u_i] divided by
-    max(1, |the nearer bound| (1 when infinite), Σ_j |C_ij xc_j|), all at ``xc`` (x projected onto [lb, ub]).
-
-    Args:
-        x (n,): the point; xc (n,): its projection onto [lb, ub]. A (m, n), b (m,): equality rows. C (p, n),
-            l, u (p,): inequality rows (±inf for absent sides). lb, ub (n,): bounds.
-
-    Returns:
-        the largest scaled violation (0 when x meets everything; a NaN entry is skipped: callers pass finite x)."""
+    """The compiled body of :meth:`wbc.solvers.base.QPBackend.scaled_violation` (x (n,), its projection xc onto
+    [lb, ub], the QP's rows): bound excess / max(1, |the crossed bound|), each row's residual or excess at xc /
+    max(1, |its right-hand side or nearer bound| (1 when infinite), Σ_j |a_ij xc_j|). A NaN entry is skipped."""
     worst = 0.0
     n = x.shape[0]
     for j in range(n):

@@ -22,10 +22,9 @@ class ProxQPBackend(QPBackend):
     Args:
         eps_abs: absolute stopping tolerance of ProxQP (primal and dual residuals).
         tolerance: largest scaled row violation of an accepted answer (:meth:`QPBackend.solve`).
-        max_iter: iteration cap (proxsuite ``max_iter``; its inner loop ``max_iter_in`` is min(max_iter, 100)),
-            an integer ≥ 1, default :data:`PROXQP_MAX_ITER`. A call that reaches it returns no solution (a failed
-            solve: the caller's fallbacks take over), never the unconverged iterate. Without a cap proxsuite's own
-            (10 000 outer × 1 500 inner iterations) let one walking QP run for minutes.
+        max_iter: iteration cap (proxsuite ``max_iter``; ``max_iter_in`` min(max_iter, 100)), an integer ≥ 1. A call
+            that reaches it is a failed solve, never the unconverged iterate (proxsuite's own caps let one walking QP
+            run for minutes).
 
     Raises:
         InvalidInputError: a ``max_iter`` that is not an integer ≥ 1.

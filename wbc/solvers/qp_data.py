@@ -1,9 +1,9 @@
-"""The data of one QP as a formulation hands it to a solver (:class:`QPData`), and a solver's answer (:class:`QPSolution`):
+"""The QP every backend of :mod:`wbc.solvers` solves, as a formulation hands it over (:class:`QPData`), and a
+solver's answer (:class:`QPSolution`):
 
-    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub
+    min_x ½ xᵀ H x + gᵀ x   s.t.   A x = b,   l ≤ C x ≤ u,   lb ≤ x ≤ ub,   x ∈ R^n.
 
-with x ∈ R^n. The arrays are the formulation's own buffers (views, no copies), overwritten at its next assembly;
-a solver reads them and never writes them.
+The arrays are the formulation's own buffers (views), overwritten at its next assembly; a solver never writes them.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast`` — the one place that
-knows every backend, so none of their modules imports another's registry.
+"""QP backends by name: :func:`make_backend`, :func:`available_solvers` and the default, ``fast``.
 
-qpsolvers is imported with :mod:`wbc.solvers`, not on first need: its import (scipy.sparse and every installed
-backend, tens of milliseconds) would otherwise land inside the control tick whose failed solve is first re-solved
-by :meth:`~wbc.solvers.base.QPBackend.confirm`.
+qpsolvers is imported here, with :mod:`wbc.solvers`: its import (tens of milliseconds) would otherwise land inside
+the first tick whose failed solve :meth:`~wbc.solvers.base.QPBackend.confirm` re-solves.
 """
 
 from __future__ import annotations
@@ -19,8 +17,8 @@ from wbc.solvers.proxqp import ProxQPBackend
 
 __all__ = ["DEFAULT_SOLVER", "available_solvers", "make_backend"]
 
-#: Backend used when none is named: the compiled exact kernel (wbc.solvers.fast) with DAQP as fallback — same
-#: trajectories as "daqp" to < 1e-11 on every catalog walk and balance behaviour, faster (benchmarks/fast_path.py).
+#: Backend used when none is named (:mod:`wbc.solvers.fast`): the trajectories of "daqp" to < 1e-11, faster
+#: (benchmarks/fast_path.py).
 DEFAULT_SOLVER = "fast"
 
 
@@ -30,8 +28,7 @@ def available_solvers() -> list[str]:
 
 
 def make_backend(name: str, **settings) -> QPBackend:
-    """Create a backend by name: ``fast`` (compiled exact kernel, DAQP fallback), ``daqp`` (DAQP workspace,
-    warm-started), ``proxqp`` (warm-started proxsuite) or any other installed qpsolvers backend.
+    """Create a backend by name: ``fast``, ``daqp``, ``proxqp`` or any other installed qpsolvers backend.
 
     Args:
         name: backend name (:func:`available_solvers`).

@@ -1,9 +1,8 @@
 """Exit codes shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`, :mod:`wbc.solvers.active_set`,
 :mod:`wbc.formulations.velocity_kernel`, :mod:`wbc.formulations.idkernel`).
 
-A kernel returns a count ≥ 0 (iterations or working rows) on success and one negative :class:`SolverStatus`
-otherwise; one code means one thing in every kernel. Compiled kernels read the plain ``int`` values (module
-constants ``int(SolverStatus.X)``), which numba freezes at compile time.
+A kernel returns a count ≥ 0 on success and one negative :class:`SolverStatus` otherwise (one code, one meaning);
+compiled kernels read the module's plain ``int`` constants, which numba freezes at compile time.
 """
 
 from __future__ import annotations
@@ -38,8 +37,7 @@ class SolverStatus(IntEnum):
     NOT_VERIFIED = -7
 
 
-#: the :class:`SolverStatus` values as plain ints (numba freezes them at compile time); DEPENDENT_EQUALITIES is
-#: ``DEPENDENT_ROWS``
+#: the :class:`SolverStatus` values as plain ints; DEPENDENT_EQUALITIES is ``DEPENDENT_ROWS``
 NOT_POSITIVE_DEFINITE = int(SolverStatus.NOT_POSITIVE_DEFINITE)
 DEPENDENT_EQUALITIES = int(SolverStatus.DEPENDENT_ROWS)
 ITERATION_CAP = int(SolverStatus.ITERATION_CAP)
