@@ -58,6 +58,7 @@ GravityWorkspace = namedtuple("GravityWorkspace", "L y dinv N w")
 
 
 def gravity_workspace(nv: int) -> GravityWorkspace:
+    """A :data:`GravityWorkspace` for ``nv`` velocities."""
     return GravityWorkspace(np.empty((nv, nv)), np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6))
 
 
