@@ -23,7 +23,7 @@ from conftest import dense_quadprog
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import SolverError
-from wbc.formulations.acceleration import InverseDynamicsQP
+from wbc.formulations.acceleration import InverseDynamicsQP, nonfinite_references
 from wbc.formulations.reference import AccelerationReference
 from wbc.state import DynamicsState
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask
@@ -233,3 +233,14 @@ def test_the_kernel_answer_is_quadprogs_optimum_and_its_torques_close_the_equati
             rhs -= Jc.T @ sol.forces[12 * k + 3 * c: 12 * k + 3 * c + 3]
     np.testing.assert_allclose(rhs[:6], 0.0, atol=1e-6 * np.abs(h).max())  # the base rows: no actuation
     np.testing.assert_allclose(sol.tau, rhs[6:], rtol=0, atol=1e-6 * np.abs(h).max())
+
+
+def test_nonfinite_references_names_the_task_with_a_nan_weight():
+    class Ref:
+        def __init__(self, name, weight):
+            self.name, self.weight = name, np.asarray(weight, float)
+            self.last_error = np.zeros(3)
+            self.feedforward_acceleration = None
+
+    found = nonfinite_references([Ref("com", [1.0, 1.0, 1.0]), Ref("posture", [1.0, np.nan])])
+    assert [name for name, _ in found] == ["task:posture"] and np.isnan(found[0][1])

@@ -44,12 +44,11 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.id_output_check import IDOutputCheck, nonfinite_references
 from wbc.formulations.id_rows import IDProblemRows
-from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, PAR_BRAKING, PAR_EPS_A,
-                                       PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON, PROJECT_CONTACT_RHS,
-                                       contact_rows_well_conditioned, id_assemble, id_command, load_id_kernels,
-                                       task_cost)
+from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, IDOutputCheck, PAR_BRAKING,
+                                       PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON,
+                                       PROJECT_CONTACT_RHS, contact_rows_well_conditioned, id_assemble, id_command,
+                                       load_id_kernels, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -63,7 +62,7 @@ from wbc.tick import TickPath
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE", "nonfinite_references"]
 
 
 @dataclass
@@ -600,7 +599,7 @@ class InverseDynamicsQP:
 
     def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
-        """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.id_output_check.IDOutputCheck`) at
+        """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
         relative tolerance ``tol`` (default the backend's), without the torque limits when ``relaxed``. Returns
         [(constraint name, violation in its units)], largest scaled first, [] when it passes;
         ``[("non_finite_command", nan), *nonfinite_inputs()]`` for a non-finite solution."""
@@ -655,3 +654,15 @@ def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> Solve
     """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
     return SolverError(f"{sol.path} returned a command that fails the output check: "
                        + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
+
+
+def nonfinite_references(references) -> list[tuple[str, float]]:
+    """``(task:<name>, nan)`` for every acceleration reference whose error (at the last assembly), weights or
+    acceleration feed-forward are not finite — e.g. a target or weight array written in place with a NaN."""
+    out = []
+    for ref in references:
+        ff = ref.feedforward_acceleration
+        if not (np.isfinite(ref.last_error).all() and np.isfinite(ref.weight).all()
+                and (ff is None or np.isfinite(ff).all())):
+            out.append((f"task:{ref.name}", float("nan")))
+    return out

@@ -15,7 +15,7 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH, once_per_process
+from wbc.compiled import CHECK_TYPES, FASTMATH, once_per_process, specialise
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
 from wbc.constraints.joint_acceleration_bounds import JointRange, joint_bounds_kernel
@@ -25,7 +25,8 @@ from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
 __all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
            "output_violations", "contact_views", "task_cost", "PROJECT_CONTACT_RHS", "IDTaskRows", "IDDynamics",
-           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs"]
+           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
+           "IDOutputCheck"]
 
 #: the arguments of :func:`id_assemble` (namedtuples, fields described there)
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
@@ -251,7 +252,7 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
 
 @nb.njit(cache=True, nogil=True)
 def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
-    """The output check of a command (:class:`~wbc.formulations.id_output_check.IDOutputCheck`) in one call:
+    """The output check of a command (:class:`IDOutputCheck`) in one call:
     dv (nv,), corner forces f (12 n_c,), torques tau (nv − 6,), the dynamics residual (N, N·m) and h (nv,), the
     limited joints (k,) int64 (into τ) and their limits (k,) (k = 0: no torque check); of ``buffers``
     (:data:`IDOutputBuffers`) the forces' bounds lbf, ubf (12 n_c,), the contacts' (n_c, 16, 12) friction rows and
@@ -344,3 +345,63 @@ def output_inputs(nv: int, nc: int, strided: bool = False) -> tuple:
     of one entry contiguous)."""
     k = 2 if strided else 1
     return tuple(np.zeros(k * n)[::k] for n in (nv, 12 * nc, nv - 6, nv))
+
+
+class IDOutputCheck:
+    """The output check of the solutions of one QP (:func:`output_violations` on preallocated buffers), independent
+    of the solver: every entry finite; corner normal forces within their bounds (``unilaterality:<c>``, N); the
+    friction pyramids (``friction:<c>``, N); the torque limits (``torque_limits``, N·m); the floating-base rows
+    (``floating_base_dynamics``, N, N·m). Each violation is compared with a relative tolerance times the row's scale
+    — max(1, |bound|) for a bound, max(1, |f_t| + μ/√2 |f_z|) for a friction row, the largest |h_u| entry for the
+    base rows — as :meth:`wbc.solvers.base.QPBackend.scaled_violation` scales them.
+
+    Args:
+        contacts: the QP's sole contacts. torque_limits: its :class:`~wbc.constraints.torque_limits.TorqueLimits`.
+        force_lb, force_ub: (12 n_c,) views of the QP's bounds on the corner forces (written by the constraints).
+    """
+
+    def __init__(self, contacts, torque_limits, force_lb: np.ndarray, force_ub: np.ndarray):
+        nc = len(contacts)
+        self.contacts = contacts
+        self.torque_limits = torque_limits
+        self.force_lb, self.force_ub = force_lb, force_ub
+        self._friction, self._active = np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_)
+        self._out = np.zeros((2 * nc + 2, 2))
+        self._no_joints = np.zeros(0, np.int64)
+        self._buffers = IDOutputBuffers(force_lb, force_ub, self._friction, self._active, self._out)
+        self._kernel = None  # violations' compiled call, specialised at its first call
+
+    def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
+        """[(constraint name, violation in its units)] of the solution ``sol`` (an
+        :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
+        scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
+        None when an entry of the solution is not finite."""
+        friction, active, out = self._friction, self._active, self._out
+        contacts = self.contacts
+        for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
+            friction[k] = c.friction_matrix
+            active[k] = c.active
+        tl = self.torque_limits
+        joints = self._no_joints if relaxed or not tl.joints.size else tl.joints
+        args = (sol.dv, sol.forces, sol.tau, float(sol.dynamics_residual), h, joints, tl.limits, tol, self._buffers)
+        kernel = self._kernel
+        if kernel is None:  # for a solution and h of any strides (with kernel type checks on, the dispatcher)
+            dv, f, tau, h_any = output_inputs(8, 1, strided=True)  # (types only: any sizes)
+            kernel = self._kernel = output_violations if CHECK_TYPES else specialise(
+                output_violations, dv, f, tau, args[3], h_any, *args[5:])
+        status = kernel(*args)
+        if status <= 0:
+            return None if status < 0 else []
+        found = []  # (scaled, name, violation)
+        for k, c in enumerate(contacts):
+            if out[2 * k, 0] > tol:
+                found.append((float(out[2 * k, 0]), f"unilaterality:{c.name}", float(out[2 * k, 1])))
+            if out[2 * k + 1, 0] > tol:
+                found.append((float(out[2 * k + 1, 0]), f"friction:{c.name}", float(out[2 * k + 1, 1])))
+        nc = len(contacts)
+        if out[2 * nc, 0] > tol:
+            found.append((float(out[2 * nc, 0]), "torque_limits", float(out[2 * nc, 1])))
+        if out[2 * nc + 1, 0] > tol:
+            found.append((float(out[2 * nc + 1, 0]), "floating_base_dynamics", float(out[2 * nc + 1, 1])))
+        found.sort(key=lambda item: -item[0])
+        return [(name, v) for _, name, v in found]
