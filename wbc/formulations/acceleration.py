@@ -101,6 +101,7 @@ _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": 
 #: the compiled assembly and solver have been loaded in this process (:meth:`InverseDynamicsQP._load_compiled`)
 _COMPILED_ID_LOADED = False
 
+
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring from its named constraints.
 
@@ -208,9 +209,6 @@ class InverseDynamicsQP:
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         self._id_command = None  # id_command specialised at the first decode (solution_from)
-        jl = self.joint_acceleration_limits
-        self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
-                          if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
 
     @property
     def backend(self):
@@ -413,11 +411,7 @@ class InverseDynamicsQP:
         self._refresh_contact_rows()
         if self.joint_limits:
             jl = self.joint_acceleration_limits
-            if self._jl_slice is not None:
-                jl.write(ctx, None, lb[self._jl_slice], ub[self._jl_slice])
-            else:
-                lo, hi = jl.bounds(state, dt)
-                lb[jl.iv], ub[jl.iv] = lo, hi
+            lb[jl.iv], ub[jl.iv] = jl.bounds(state, dt)
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
 
     def _context(self, state: DynamicsState, dt: float) -> IDContext:

@@ -364,11 +364,9 @@ class IDOutputCheck:
         nc = len(contacts)
         self.contacts = contacts
         self.torque_limits = torque_limits
-        self.force_lb, self.force_ub = force_lb, force_ub
-        self._friction, self._active = np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_)
-        self._out = np.zeros((2 * nc + 2, 2))
+        self._buffers = IDOutputBuffers(force_lb, force_ub, np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_),
+                                        np.zeros((2 * nc + 2, 2)))
         self._no_joints = np.zeros(0, np.int64)
-        self._buffers = IDOutputBuffers(force_lb, force_ub, self._friction, self._active, self._out)
         self._kernel = None  # violations' compiled call, specialised at its first call
 
     def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
@@ -376,7 +374,7 @@ class IDOutputCheck:
         :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
         scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
         None when an entry of the solution is not finite."""
-        friction, active, out = self._friction, self._active, self._out
+        _, _, friction, active, out = self._buffers
         contacts = self.contacts
         for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
             friction[k] = c.friction_matrix
