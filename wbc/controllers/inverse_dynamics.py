@@ -179,12 +179,6 @@ class IDCommand(TickResultBase):
     path_reason: str = ""
 
 
-def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
-    if not conflicts:
-        return ""
-    return "; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
-
-
 class InverseDynamicsController:
     """One inverse-dynamics QP per control tick (module docstring).
 
@@ -277,7 +271,8 @@ class InverseDynamicsController:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
             conflicts = self._conflicts()
-            message = str(exc) + _conflict_text(conflicts)
+            message = str(exc) + ("; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+                                  if conflicts else "")
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
                 sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:

@@ -390,16 +390,8 @@ class IDOutputCheck:
         status = kernel(*args)
         if status <= 0:
             return None if status < 0 else []
-        found = []  # (scaled, name, violation)
-        for k, c in enumerate(contacts):
-            if out[2 * k, 0] > tol:
-                found.append((float(out[2 * k, 0]), f"unilaterality:{c.name}", float(out[2 * k, 1])))
-            if out[2 * k + 1, 0] > tol:
-                found.append((float(out[2 * k + 1, 0]), f"friction:{c.name}", float(out[2 * k + 1, 1])))
-        nc = len(contacts)
-        if out[2 * nc, 0] > tol:
-            found.append((float(out[2 * nc, 0]), "torque_limits", float(out[2 * nc, 1])))
-        if out[2 * nc + 1, 0] > tol:
-            found.append((float(out[2 * nc + 1, 0]), "floating_base_dynamics", float(out[2 * nc + 1, 1])))
+        names = [f"{kind}:{c.name}" for c in contacts for kind in ("unilaterality", "friction")]  # rows of out
+        found = [(float(out[r, 0]), name, float(out[r, 1]))  # (scaled, name, violation)
+                 for r, name in enumerate((*names, "torque_limits", "floating_base_dynamics")) if out[r, 0] > tol]
         found.sort(key=lambda item: -item[0])
         return [(name, v) for _, name, v in found]
