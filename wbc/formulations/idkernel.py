@@ -193,24 +193,16 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     friction rows, force bounds) and the rows of hard tasks and added constraints (``par[PAR_EXTRA_ROWS]`` rows of A
     after the active contacts') are the formulation's, written before the call.
 
-    Args (namedtuples, the fields below):
-        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
-            of :func:`task_cost`.
-        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
-            control period (s).
-        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv),
-            Gc (nc, 6, 12), LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world ← sole);
-            cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,)
-            bool.
-        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the
-            torque-limited joints, then the q and v indices of the joint-bounded ones; lim (nt,): their torque limits
-            (N·m). par (6,): ε_a, a_brk, joint limits on (≠ 0), contact conditioning ratio, speed horizon in ticks,
-            gathered equality rows written after the active contacts' (``PAR_*``). qmin, qmax, vmax (k,): joint-limit
-            data (eq. 9).
-        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has
-            room for every contact).
-        work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,): :func:`task_cost`; gram (6 nc, 6 nc), gram_y (6 nc,):
-            :func:`contact_rows_well_conditioned`; jlo, jhi (k,): joint bounds.
+    Args (namedtuples):
+        tasks (:data:`IDTaskRows`): the stacked task rows of :func:`task_cost`.
+        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,) of the state; dt: control period (s).
+        contacts (:data:`IDContactData`): cbuf, the contact data of :func:`contact_views` (LOCAL sole Jacobians,
+            corner maps, sole rotations world ← sole, eq. 5's cdrift = −J̇v − K_p e and K_d); active (nc,) bool.
+        limits (:data:`IDLimits`): idx int64 [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited
+            joints, then the q and v indices of the joint-bounded ones; lim (nt,) their torque limits (N·m); par (6,)
+            the settings ``PAR_*``; qmin, qmax, vmax (k,) joint-limit data (eq. 9).
+        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT, written in place (A has room for every contact).
+        work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,), gram (6 nc, 6 nc), gram_y (6 nc,), jlo, jhi (k,).
 
     Returns:
         m, the number of equality rows (6 + 6 per active contact + ``par[PAR_EXTRA_ROWS]``), or PROJECT_CONTACT_RHS

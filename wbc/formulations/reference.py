@@ -61,8 +61,7 @@ class AccelerationReference:
         task: the task (:class:`wbc.tasks.base.Task` with a :meth:`~wbc.tasks.base.Task.drift`).
         kp: stiffness Kp (1/s²), ≥ 0.
         kd: damping Kd (1/s), ≥ 0; default 2√Kp.
-        weight: scalar or (m,) cost weights; default a copy of the task's weight at construction (the reference
-            owns its weight: in-place edits of either do not reach the other).
+        weight: scalar or (m,) cost weights; default a copy of the task's weight at construction.
         name: label (default the task's name).
 
     Attributes:
