@@ -92,16 +92,11 @@ def gravity_torques(M, h, v, J, k, dt, tau_max, ws, W, tau) -> int:
     W by the normal equations.
 
     Args:
-        M: (nv, nv) the state's joint-space inertia matrix.
-        h: (nv,) its non-linear effects (N, N·m).
-        v: (nv,) its velocity.
-        J: (≥ k, nv) the stacked active sole Jacobians (LOCAL) in its first k rows.
-        k: 6 × the number of active soles.
-        dt: control period (s).
-        tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
-        ws: a :data:`GravityWorkspace` (``ws.dinv`` ← diag(M⁻¹)).
-        W: (≥ k,) ← the sole wrenches in its first k entries (LOCAL, 6 per sole).
-        tau: (nv − 6,) ← τ (N·m).
+        M (nv, nv), h (nv,) (N, N·m), v (nv,): the state's inertia matrix, non-linear effects and velocity.
+        J (≥ k, nv): the stacked active sole Jacobians (LOCAL) in its first k = 6 × (active soles) rows.
+        dt: control period (s). tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
+        ws: a :data:`GravityWorkspace` (``ws.dinv`` ← diag(M⁻¹)). W (≥ k,) ← the LOCAL sole wrenches, 6 per sole;
+            tau (nv − 6,) ← τ (N·m).
 
     Returns:
         0; 1: M is not positive definite; 2: the normal equations are not well conditioned
