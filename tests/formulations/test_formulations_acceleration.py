@@ -19,9 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import wbc
+from conftest import dense_quadprog
 from wbc.constraints.sole_contact import SoleContact
+from wbc.dynamics.balance import IDBalanceController
 from wbc.exceptions import SolverError
-from wbc.formulations.acceleration import InverseDynamicsQP
+from wbc.formulations.acceleration import InverseDynamicsQP, nonfinite_references
 from wbc.formulations.reference import AccelerationReference
 from wbc.state import DynamicsState
 from wbc.tasks import ComTask, FrameTask, OrientationTask, PositionTask, PostureTask
@@ -200,3 +202,45 @@ def test_compiled_tick_and_its_fallback_share_the_equality_rows_after_a_hard_tas
     assert got.path.route == want.path.route
     x_got, x_want = np.concatenate([got.dv, got.forces]), np.concatenate([want.dv, want.forces])
     assert np.max(np.abs(x_got - x_want)) <= 1e-12 * max(1.0, float(np.max(np.abs(x_want))))
+
+
+def test_the_kernel_answer_is_quadprogs_optimum_and_its_torques_close_the_equations_of_motion(robots):
+    """The compiled route (id_assemble and the chain's compiled solver, through ``InverseDynamicsQP.solve``), Talos
+    standing: its answer against quadprog on the QP ``build()`` assembles at the same state, and its torques against
+    Pinocchio's equations of motion (τ = (M v̇ + h − J_cᵀ f)[6:], M from CRBA, h = g(q) at v = 0)."""
+    robot = robots("talos")
+    ctrl = IDBalanceController(robot, dt=DT)
+    ctrl.reset(robot.q_ref.copy(), np.zeros(robot.nv))
+    ctrl.state.update(robot.q_ref.copy(), np.zeros(robot.nv))
+    qp = ctrl.qp
+    sol = qp.solve(ctrl.state, DT)
+    assert str(sol.path) == "kernel", sol.path
+    H, g, A, b, C, l, u, lb, ub = qp.build(ctrl.state, DT)
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    x = np.concatenate([sol.dv, sol.forces])
+    np.testing.assert_allclose(x, xq, rtol=0, atol=1e-6 * max(1.0, np.abs(xq).max()))
+    # torques: Pinocchio's equations of motion with the answer's v̇ and corner forces (sole frames, LOCAL)
+    model, data = robot.model, robot.model.createData()
+    q = robot.q_ref
+    M = pin.crba(model, data, q)
+    h = pin.computeGeneralizedGravity(model, data, q)
+    pin.computeJointJacobians(model, data, q)
+    rhs = M @ sol.dv + h
+    for k, contact in enumerate(qp.contacts):  # corner forces in the sole frame (LOCAL), as the module states
+        J = pin.getFrameJacobian(model, data, contact.frame_id, pin.LOCAL)
+        for c, corner in enumerate(contact.corners):  # corner positions in the sole frame, m
+            Jc = J[:3] - pin.skew(corner) @ J[3:]  # LOCAL linear Jacobian of the corner point: v + ω × c
+            rhs -= Jc.T @ sol.forces[12 * k + 3 * c: 12 * k + 3 * c + 3]
+    np.testing.assert_allclose(rhs[:6], 0.0, atol=1e-6 * np.abs(h).max())  # the base rows: no actuation
+    np.testing.assert_allclose(sol.tau, rhs[6:], rtol=0, atol=1e-6 * np.abs(h).max())
+
+
+def test_nonfinite_references_names_the_task_with_a_nan_weight():
+    class Ref:
+        def __init__(self, name, weight):
+            self.name, self.weight = name, np.asarray(weight, float)
+            self.last_error = np.zeros(3)
+            self.feedforward_acceleration = None
+
+    found = nonfinite_references([Ref("com", [1.0, 1.0, 1.0]), Ref("posture", [1.0, np.nan])])
+    assert [name for name, _ in found] == ["task:posture"] and np.isnan(found[0][1])

@@ -1,46 +1,29 @@
 """Inverse-dynamics controller tick: state (q, v) → QP (:mod:`wbc.formulations.acceleration`) → torques τ.
 
 :class:`InverseDynamicsController`, the sibling of :class:`wbc.controllers.kinematic.KinematicController`: one
-:meth:`~InverseDynamicsController.solve` per control period updates the Pinocchio quantities once
-(:class:`~wbc.state.DynamicsState`), solves the QP and returns τ, v̇ and the contact forces. Every command a QP
-returns passes the output check (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`; a full-QP answer
-off by the solver's precision is refined first); one that fails it counts as a failed solve, the violated
-constraints in ``IDCommand.conflicts``. ``IDCommand.path`` names the route: ``kernel``, ``general:<backend>``,
-``relaxed:<backend>`` (step 1 below), ``fallback:hold``, ``fallback:feasible`` or ``fallback:gravity`` (step 2).
+:meth:`~InverseDynamicsController.solve` per control period updates :class:`~wbc.state.DynamicsState`, solves the QP
+(its answer passes the QP's output check, :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) and returns
+τ, v̇ and the contact forces; ``IDCommand.path`` names the route (``kernel``, ``general:<backend>``,
+``relaxed:<backend>``, ``fallback:hold|feasible|gravity``). A tick has ``budget`` seconds of CPU time of the calling
+thread, measured (``over_budget``, ``deadline_misses``) and turned into iteration counts, so that its answer is a
+function of its inputs (a clock decides only with ``clock_guard``); a late command is used and counted. The fallback
+chain's stages: :mod:`wbc.solvers.fallback`, docs/inverse-dynamics-controller.md.
 
-Time budget: a tick has ``budget`` seconds (default dt) of CPU time of the calling thread (``time.thread_time``),
-measured and reported (``over_budget``, ``deadline_misses``), used to decide only with ``clock_guard``. Otherwise it
-sets counts (constructor docstring), so that a tick's answer is a function of its inputs; the stages of a failed tick
-and their factors are the fallback chain's (:mod:`wbc.solvers.fallback`; docs/inverse-dynamics-controller.md). A
-command that ends past the budget is used and counted (a solved QP one tick late is the better command). The
-diagnosis (step 0) and the independent re-solve confirming an infeasibility are off the control path unless
-``diagnose=True`` (a diagnosis mode, not for real time); :meth:`InverseDynamicsController.diagnose` names the last
-tick's conflicts on demand.
+Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`; the violated or conflicting
+constraints in ``IDCommand.conflicts``, named by :meth:`InverseDynamicsQP.diagnose` inside the tick only with
+``diagnose=True``):
 
-Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`):
-
-0. diagnosis (``diagnose=True``): the conflicting named constraints with their violations, largest first, in
-   ``IDCommand.conflicts`` and ``message`` (:meth:`InverseDynamicsQP.diagnose`, :mod:`wbc.solvers.diagnosis`);
-1. the full QP fails (e.g. after an impact a joint is outside the viable set of the joint bounds) → the same QP
-   **without joint acceleration bounds and torque limits**
-   (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`; MuJoCo / the drives still clamp torques
-   and stop joints at their limits): ``ok`` and ``relaxed`` True, the torques clipped to the (scaled) URDF limits;
-2. that fails too → the **previous tick's solved command** (``fallback:hold``, a zero-order hold for one tick, as a
-   real-time loop does on a missed deadline: the damping term below is a torque step at impact velocities that a
-   single landing tick did not survive), held for as long as the failures are the budget's (a full QP cut by the
-   counted work whose hard set has a point; with no solved command to hold, that point, ``fallback:feasible``); a
-   second failed tick in a row, or one with no solved tick before it, takes **contact-consistent gravity
-   compensation with joint damping** at the current state (``fallback:gravity``, :func:`gravity_torques`),
+1. the full QP fails → the same QP without joint acceleration bounds and torque limits (``solve_relaxed``; the
+   drives still clamp): ``relaxed`` True, τ clipped to the (scaled) URDF limits;
+2. that fails too → the previous tick's solved command for one tick (``fallback:hold``; kept while the failures are
+   the budget's: a cut full QP whose hard set has a point, which is commanded, ``fallback:feasible``, when there is
+   no command to hold); else contact-consistent gravity compensation with joint damping (``fallback:gravity``):
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
        τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)
 
-   the damping gain being the largest a 1-tick explicit loop keeps stable on light links
-   (:mod:`wbc.sim.mujoco_model`). A held command keeps the QP's joint speed bounds (``qp.joint_speed_limits``) at
-   the **new** state: a joint whose held v̇ᵢ leaves [lᵢ, uᵢ] at the current velocity gets
-   τᵢ += I_eff,i (clip(v̇ᵢ, lᵢ, uᵢ) − v̇ᵢ) (diagonal inertia, coupling neglected; clipped to ±τ_max; a few dozen µs,
-   the relaxed QP that would keep them exactly being skipped once the budget is spent). ``ok`` is False, the reason
-   in ``message``; the next tick tries the QP again.
+   (the largest damping a 1-tick explicit loop keeps stable on light links). A held command keeps the QP's joint
+   speed bounds at the new state: τᵢ += I_eff,i (clip(v̇ᵢ, lᵢ, uᵢ) − v̇ᵢ) (diagonal inertia). ``ok`` is False.
 """
 
 from __future__ import annotations
@@ -65,20 +48,17 @@ from wbc.tick import TickPath, TickResultBase
 
 __all__ = ["InverseDynamicsController", "IDCommand", "GravityWorkspace", "gravity_torques", "inverse_diagonal"]
 
-#: the safe command's least-norm sole wrenches come from the normal equations (BᵀB) w = h_u, W = B w, when each
-#: Cholesky pivot of BᵀB is above this fraction of its diagonal entry (B = (J_c)_u, the base columns of the
-#: stacked active sole Jacobians: a 6 × 6 system conditioned ~10 for soles within a few metres of the base);
-#: otherwise numpy's SVD least squares answers (:meth:`InverseDynamicsController.fallback`)
+#: smallest Cholesky pivot of BᵀB (relative to its diagonal entry; B = (J_c)_u, conditioned ~10) for which
+#: :func:`gravity_torques` solves the normal equations; below it numpy's SVD least squares answers
 NORMAL_EQUATION_PIVOT = 1e-8
 
-
-#: the workspace of :func:`gravity_torques` for a model of nv velocities: L (nv, nv) and y (nv,) of the Cholesky of M,
-#: dinv (nv,) ← diag(M⁻¹), N (6, 6) and w (6,) of the normal equations of the base rows
+#: the workspace of :func:`gravity_torques`: L (nv, nv), y (nv,) of the Cholesky of M, dinv (nv,) ← diag(M⁻¹),
+#: N (6, 6) and w (6,) of the normal equations
 GravityWorkspace = namedtuple("GravityWorkspace", "L y dinv N w")
 
 
 def gravity_workspace(nv: int) -> GravityWorkspace:
-    """A :data:`GravityWorkspace` for a model of ``nv`` velocities."""
+    """A :data:`GravityWorkspace` for ``nv`` velocities."""
     return GravityWorkspace(np.empty((nv, nv)), np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6))
 
 
@@ -108,21 +88,15 @@ def inverse_diagonal(M, L, y, out) -> bool:
 
 @nb.njit(cache=True, fastmath=FASTMATH)
 def gravity_torques(M, h, v, J, k, dt, tau_max, ws, W, tau) -> int:
-    """Joint torques of the gravity fallback (module docstring, step 2): τ = h_a − (J_cᵀ)_a W − K_d v_a with
-    K_d,i = 0.5 I_eff,i / dt, I_eff,i = 1 / (M⁻¹)_ii, clipped to ±τ_max where τ_max is finite and > 0; W the least-norm
-    solution of (J_cᵀ)_u W = h_u by the normal equations.
+    """Joint torques of the gravity fallback (module docstring, step 2; τ clipped where τ_max is finite and > 0),
+    W by the normal equations.
 
     Args:
-        M: (nv, nv) the state's joint-space inertia matrix.
-        h: (nv,) its non-linear effects (N, N·m).
-        v: (nv,) its velocity.
-        J: (≥ k, nv) the stacked active sole Jacobians (LOCAL) in its first k rows.
-        k: 6 × the number of active soles.
-        dt: control period (s).
-        tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
-        ws: a :data:`GravityWorkspace` (``ws.dinv`` ← diag(M⁻¹)).
-        W: (≥ k,) ← the sole wrenches in its first k entries (LOCAL, 6 per sole).
-        tau: (nv − 6,) ← τ (N·m).
+        M (nv, nv), h (nv,) (N, N·m), v (nv,): the state's inertia matrix, non-linear effects and velocity.
+        J (≥ k, nv): the stacked active sole Jacobians (LOCAL) in its first k = 6 × (active soles) rows.
+        dt: control period (s). tau_max: (nv − 6,) torque limits (N·m; not finite or ≤ 0: none).
+        ws: a :data:`GravityWorkspace` (``ws.dinv`` ← diag(M⁻¹)). W (≥ k,) ← the LOCAL sole wrenches, 6 per sole;
+            tau (nv − 6,) ← τ (N·m).
 
     Returns:
         0; 1: M is not positive definite; 2: the normal equations are not well conditioned
@@ -168,8 +142,7 @@ def gravity_torques(M, h, v, J, k, dt, tau_max, ws, W, tau) -> int:
 
 @once_per_process
 def _load_kernels() -> None:
-    """Load :func:`gravity_torques` and :func:`inverse_diagonal` for the array types of a real call (M column-major
-    as a :class:`~wbc.state.DynamicsState`'s), once per process: at construction, not inside a failed tick."""
+    """Load the kernels at construction (M column-major as a DynamicsState's), not inside a failed tick."""
     nv = 7
     M = np.asfortranarray(np.eye(nv))
     gravity_torques(M, np.zeros(nv), np.zeros(nv), np.zeros((6, nv)), 6, 0.002, np.ones(nv - 6), gravity_workspace(nv),
@@ -179,24 +152,17 @@ def _load_kernels() -> None:
 
 @dataclass
 class IDCommand(TickResultBase):
-    """Output of one tick (``ok``, ``message``, ``timings``, ``conflicts``, ``path``, ``over_budget``: the fields of
-    :class:`wbc.tick.TickResultBase`, shared with the kinematic ``TickResult``).
+    """Output of one tick (with the fields of :class:`wbc.tick.TickResultBase`: ``ok`` a QP, full or relaxed, was
+    solved; ``message`` the failure reason; ``conflicts`` (name, violation), largest first; ``path``; ``timings`` in
+    s: 'pinocchio', 'assembly', 'solve', 'total', 'cpu' (thread CPU time, the budgeted quantity)).
 
     Attributes:
         tau: (nv − 6,) joint torques (N·m), Pinocchio's actuated order.
-        dv: (nv,) generalized acceleration of the QP (zeros on fallback).
-        forces: (12 n_c,) corner forces (N, sole frames) (zeros on fallback).
+        dv: (nv,) generalized acceleration; forces: (12 n_c,) corner forces (N, sole frames); zeros on fallback.
         wrenches: contact name → (6,) wrench at the sole origin, world axes (N, N·m).
-        ok: a QP (full or relaxed) was solved. relaxed: the relaxed QP was used.
-        message: failure reason ('' when the full QP was solved); names the conflicting constraints.
-        conflicts: after a failed full QP, (constraint name, violation in its units), largest first.
-        dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m) (nan on fallback).
-        timings: seconds in 'pinocchio', 'assembly', 'solve', 'total' (wall clock) and 'cpu' (CPU time of the
-            thread, the budgeted quantity).
-        path: the route of the tick (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.ID_ROUTES`; module docstring).
-        path_reason: why the tick left the compiled route and which step answered, e.g. ``kernel status
-            ITERATION_CAP → daqp attempt``, ``full and relaxed QP failed → hold``; '' on the compiled route and for a
-            backend chosen by name (docs/inverse-dynamics-controller.md, "Routes and reasons").
+        relaxed: the relaxed QP was used. dynamics_residual: as :class:`IDSolution`'s (nan on fallback).
+        path_reason: why the tick left the compiled route and which step answered ('' on it;
+            docs/inverse-dynamics-controller.md, "Routes and reasons").
     """
 
     tau: np.ndarray
@@ -208,31 +174,20 @@ class IDCommand(TickResultBase):
     path_reason: str = ""
 
 
-def _conflict_text(conflicts: list[tuple[str, float]]) -> str:
-    if not conflicts:
-        return ""
-    return "; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
-
-
 class InverseDynamicsController:
     """One inverse-dynamics QP per control tick (module docstring).
 
     Args:
         qp: the problem (tasks and contacts are edited on it between ticks).
         dt: control period (s), > 0.
-        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded); it sets the compiled
-            solver's iteration cap (``qp.kernel_max_iterations``, :func:`~wbc.solvers.compiled_id.kernel_iterations`),
-            the first DAQP attempt's (``qp.chain.daqp_attempt_iterations``) and the counted work of a failed tick's
-            later stages (``qp.chain.tick_work_iterations``).
-        diagnose: diagnosis mode: name the conflicting constraints inside every failed tick (a least-squares QP per
-            failure; off by default, :meth:`diagnose` does it on demand).
-        clock_guard: the failure path of a DAQP-solved tick is ordered by cost and stopped by the CPU time since the
-            tick began (``FallbackChain.tick_clock``; its deadlines in budgets, ``FallbackChain.FULL_QP_DEADLINE`` …
-            ``RELAXED_DEADLINE``); a relaxed command whose full QP lost a check to the clock says so in its path
-            (``relaxed:<solver>+budget``). Default False: nothing is decided by a clock, a tick's answer is a function
-            of its inputs (reproducible simulations and campaigns). True (a robot's real-time loop): an answer that
-            depends on the machine's speed and load on a slow tick (a feasible QP that only a skipped solve would
-            have solved takes the relaxed QP). Settable as an attribute.
+        budget: CPU time a tick may use (s, > 0; default dt; ``math.inf``: unbounded); sets the iteration caps
+            ``qp.kernel_max_iterations`` (:func:`~wbc.solvers.compiled_id.kernel_iterations`),
+            ``qp.chain.daqp_attempt_iterations`` and ``qp.chain.tick_work_iterations``.
+        diagnose: name the conflicting constraints inside every failed tick (a least-squares QP per failure).
+        clock_guard: the failure path is stopped by the CPU time since the tick began (``FallbackChain.tick_clock``;
+            a relaxed command whose full QP lost a check to the clock has path ``relaxed:<solver>+budget``). Default
+            False: a tick's answer is a function of its inputs; True (a real-time loop): it depends on the machine's
+            speed on a slow tick. Settable as an attribute.
 
     Attributes:
         n_ticks, n_failures (fallback ticks), n_relaxed, n_over_budget: counts since construction.
@@ -268,18 +223,14 @@ class InverseDynamicsController:
         self._path_key: tuple = (None, "")  # (path object, its string form) of the last tick
         self.routes: Counter = Counter()
         nv, nc = qp.nv, len(qp.contacts)
-        # the safe command's buffers (gravity_torques): stacked active sole Jacobians, sole wrenches, diag(M⁻¹),
-        # workspace
+        # gravity_torques' stacked active sole Jacobians, sole wrenches, workspace
         self._safe = (np.zeros((6 * nc, nv)), np.zeros(6 * nc), gravity_workspace(nv))
         _load_kernels()
 
     @property
     def budget(self) -> float:
-        """CPU time a tick may use (s, > 0; ``math.inf``: unbounded), module docstring.
-
-        Raises:
-            InvalidInputError: on assignment of anything but a number > 0.
-        """
+        """CPU time a tick may use (s, > 0; ``math.inf``: unbounded). Raises InvalidInputError on assignment of
+        anything but a number > 0."""
         return self._budget
 
     @budget.setter
@@ -315,7 +266,8 @@ class InverseDynamicsController:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
             conflicts = self._conflicts()
-            message = str(exc) + _conflict_text(conflicts)
+            message = str(exc) + ("; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
+                                  if conflicts else "")
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
                 sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:
@@ -384,8 +336,7 @@ class InverseDynamicsController:
         return self._count(cmd, c0)
 
     def _hold_speed_bounds(self, cmd: IDCommand) -> None:
-        """Move the held command's joint accelerations into the QP's joint speed bounds at the current state
-        (module docstring, step 2), in place on ``cmd.tau`` and ``cmd.dv``."""
+        """Brake the held command into the joint speed bounds (module docstring, step 2), in place."""
         sb = self.qp.joint_speed_limits
         if sb is None or not sb.dim:
             return
@@ -422,19 +373,16 @@ class InverseDynamicsController:
         return self.diagnose() if self.diagnose_failures else []
 
     def diagnose(self) -> list[tuple[str, float]]:
-        """The hard constraints that conflict at the state of the last tick, with their violations (constraint
-        units), largest first (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose`); empty when the
-        hard set is feasible or the diagnosis fails (never raises). Off the control path: call it after a failed
-        tick (it solves a least-squares QP)."""
+        """:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose` at the last tick's state; [] when the
+        hard set is feasible or the diagnosis fails (never raises). Off the control path (a least-squares QP)."""
         try:
             return self.qp.diagnose(self.state, self.dt)
         except Exception:  # noqa: BLE001 — diagnosis is best effort on a tick that already failed
             return []
 
     def summary(self) -> dict:
-        """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``deadline_misses`` (ticks whose CPU
-        time exceeded dt), ``fallback_rate`` (fallback ticks /
-        ticks), ``relaxed``, ``routes`` (route → ticks), ``paths`` (path with its qualifiers → ticks)."""
+        """Counts since construction: ``ticks``, ``budget_ms``, ``over_budget``, ``deadline_misses``,
+        ``fallback_rate`` (fallback ticks / ticks), ``relaxed``, ``routes`` and ``paths`` (→ ticks)."""
         n = max(self.n_ticks, 1)
         return {"ticks": self.n_ticks, "budget_ms": 1e3 * self.budget, "over_budget": self.n_over_budget,
                 "deadline_misses": self.deadline_misses, "fallback_rate": self.n_failures / n,
@@ -462,8 +410,7 @@ class InverseDynamicsController:
                          path=TickPath("fallback", fallback="gravity"))
 
     def _gravity_torques_numpy(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(τ, W) of :func:`gravity_torques` by numpy's inverse and SVD least squares (M not positive definite, or
-        the base columns of the stacked active sole Jacobians ``Jc`` (k, nv) nearly dependent)."""
+        """(τ, W) of :func:`gravity_torques` by numpy (when it declines) on the active sole Jacobians Jc (k, nv)."""
         st, qp = self.state, self.qp
         h = st.h
         tau = h[6:].copy()

@@ -16,14 +16,13 @@ G_k the corner-force → sole-wrench map, the torques are not variables (Feather
            G_j v̇ ≥ −Ġ_j v − 2γ_j G_j v − γ_j² h_j                   an added barrier's name                 (10)
            J_t v̇ = r_t                                               task:<t>                 (hard tasks)
 
-With ≥ 2 active contacts the nearly dependent directions of (5) are dropped. Every constraint is a named object of
-:mod:`wbc.constraints` that writes its rows in place into one preallocated array per block;
-:meth:`InverseDynamicsQP.build` returns the blocks (:class:`~wbc.solvers.qp_data.QPData`). With ``solver="fast"``
-the compiled assembly (:mod:`wbc.formulations.id_compiled`) writes the same arrays from the same gathered rows
-(:mod:`wbc.formulations.id_rows`). A tick is assemble → :attr:`InverseDynamicsQP.chain`
-(:class:`~wbc.solvers.fallback.FallbackChain`: the compiled solver :class:`~wbc.solvers.compiled_id.CompiledIDSolver`
-first with ``fast``, then the backend's ladder) → decode (:meth:`InverseDynamicsQP.solution_from`). ε_a, ε_f > 0 make the
-Hessian positive definite. The derivations, the joint bounds (9) and the rules of the chain:
+With ≥ 2 active contacts the nearly dependent directions of (5) are dropped; ε_a, ε_f > 0 make the Hessian positive
+definite. Every constraint is a named object of :mod:`wbc.constraints` writing its rows in place into preallocated
+blocks (:meth:`InverseDynamicsQP.build`); with ``solver="fast"`` the compiled assembly
+(:func:`~wbc.formulations.idkernel.id_assemble`) writes the same numbers from the same gathered rows
+(:mod:`wbc.formulations.id_rows`). A tick: assemble → :attr:`InverseDynamicsQP.chain`
+(:class:`~wbc.solvers.fallback.FallbackChain`, :class:`~wbc.solvers.compiled_id.CompiledIDSolver` first with
+``fast``) → decode (:meth:`InverseDynamicsQP.solution_from`). Derivations and the chain's rules:
 docs/inverse-dynamics-controller.md.
 """
 
@@ -45,11 +44,11 @@ from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
 from wbc.constraints.torque_limits import TorqueLimits
 from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
-from wbc.formulations.id_compiled import CompiledIDAssembly
-from wbc.formulations.id_output_check import IDOutputCheck, nonfinite_references
 from wbc.formulations.id_rows import IDProblemRows
-from wbc.formulations.idkernel import (IDDynamics, PROJECT_CONTACT_RHS, contact_rows_well_conditioned, load_id_kernels,
-                                       id_command, task_cost)
+from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, IDOutputCheck, PAR_BRAKING,
+                                       PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON,
+                                       PROJECT_CONTACT_RHS, contact_rows_well_conditioned, id_assemble, id_command,
+                                       load_id_kernels, task_cost)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -63,7 +62,7 @@ from wbc.tick import TickPath
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE"]
+__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE", "nonfinite_references"]
 
 
 @dataclass
@@ -77,11 +76,8 @@ class IDSolution:
         wrenches: contact name → (6,) wrench (N, N·m) at the sole origin, world axes.
         dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
         timings: seconds spent in 'assembly' and 'solve'.
-        path: the route that produced it (:class:`wbc.tick.TickPath`): ``kernel`` (the compiled tick),
-            ``general:<backend>`` (the backend on the assembled QP), ``relaxed:<backend>``
-            (:meth:`InverseDynamicsQP.solve_relaxed`); None before a solve.
-        reason: why a tick left the compiled route and which step of the fallback chain answered (e.g.
-            ``kernel status ITERATION_CAP → daqp attempt``); '' on the compiled route.
+        path: the route (:class:`wbc.tick.TickPath`): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``.
+        reason: why a tick left the compiled route and which step of the chain answered; '' on it.
     """
 
     dv: np.ndarray
@@ -95,14 +91,16 @@ class IDSolution:
 
 
 #: a full-QP answer failing the output check is refined only when it passes it at this relative tolerance
-#: (:meth:`InverseDynamicsQP._guard_full`): the backends' own polish range
 OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
-#: Solver settings of the ID QP: DAQP's primal tolerance 1e-6 (1e-9 reported "no solution" on feasible walking
-#: problems); the dual warm start, faster than DAQP's workspace on this inequality-heavy QP (benchmarks/README.md).
+#: the ID QP's DAQP settings (benchmarks/README.md)
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
+
+#: the compiled assembly and solver have been loaded in this process (:meth:`InverseDynamicsQP._load_compiled`)
+_COMPILED_ID_LOADED = False
+
 
 class InverseDynamicsQP:
     """Builds and solves the QP of the module docstring from its named constraints.
@@ -112,9 +110,8 @@ class InverseDynamicsQP:
         tasks: tasks with their PD references (:class:`~wbc.formulations.reference.AccelerationReference`),
             weighted (soft).
         contacts: sole contacts (all declared up front; (de)activate them to switch support).
-        solver: the backend of :attr:`chain`: a name (``fast``, the default: the compiled tick,
-            :mod:`wbc.formulations.id_compiled`, with DAQP's chain when it gives up; ``daqp``: DAQP warm-started from
-            the previous duals, ``primal_tol`` 1e-6; any other :func:`wbc.solvers.make_backend` name) or a
+        solver: the backend of :attr:`chain`: a name (``fast``, the default: the compiled tick, then DAQP's chain;
+            ``daqp``: DAQP warm-started from the previous duals; any :func:`wbc.solvers.make_backend` name) or a
             :class:`~wbc.solvers.base.QPBackend`.
         acceleration_regularization: ε_a (weight of ‖v̇‖²).
         force_regularization: ε_f (weight of ‖f‖², 1/N² in task-cost units).
@@ -125,11 +122,8 @@ class InverseDynamicsQP:
     Attributes:
         constraints: every named constraint (:mod:`wbc.constraints`), in row order.
         torque_limits, joint_acceleration_limits, dynamics: the single-instance constraints.
-        chain: the fallback ladder over the backend (:class:`~wbc.solvers.fallback.FallbackChain`): its budget,
-            steps and counters.
-        kernel_max_iterations: the compiled solver's iteration cap (:func:`~wbc.solvers.compiled_id.kernel_iterations`
-            of the controller's budget; after a call that gave up, at most
-            :data:`~wbc.solvers.compiled_id.KERNEL_ITERATIONS_AFTER_GIVE_UP`).
+        chain: the fallback ladder over the backend (:class:`~wbc.solvers.fallback.FallbackChain`).
+        kernel_max_iterations: the compiled solver's iteration cap (set by the controller's budget).
 
     Raises:
         UnknownSolverError: unknown backend. InvalidInputError: bad numbers or objects.
@@ -179,7 +173,6 @@ class InverseDynamicsQP:
             r += con.dim
         self._r0 = r  # inequality rows before the added constraints (add_constraint)
         self.extra_constraints: list[IDConstraint] = []
-        #: equality constraints added by :meth:`add_constraint` (rows after the hard tasks')
         self.extra_equalities: list[IDConstraint] = []
         self._H = np.zeros((n, n))
         self._g = np.zeros(n)
@@ -201,14 +194,13 @@ class InverseDynamicsQP:
         self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
-        self._compiled = None
+        self._compiled = None  # id_assemble's (limits, arrays, work) on the compiled route
         if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
             self._new_compiled()
         # why a tick of this QP is not on the compiled route ('' for a backend chosen by name or object)
         self._general_reason = ("no compiled tick: torque-limited joints not contiguous in v"
                                 if solver == "fast" and self._compiled is None else "")
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
-        #: the output check of :meth:`verify`
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
         self._m = 6  # equality rows of the last build
         self.chain.hard_set_x = np.zeros(n)
@@ -217,9 +209,6 @@ class InverseDynamicsQP:
         self.kernel_max_iterations = 100
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         self._id_command = None  # id_command specialised at the first decode (solution_from)
-        jl = self.joint_acceleration_limits
-        self._jl_slice = (slice(int(jl.iv[0]), int(jl.iv[-1]) + 1)
-                          if jl.dim and np.array_equal(jl.iv, np.arange(jl.iv[0], jl.iv[0] + jl.dim)) else None)
 
     @property
     def backend(self):
@@ -241,15 +230,9 @@ class InverseDynamicsQP:
         """Add a constraint under its name: an equality or inequality :class:`~wbc.constraints.base.IDConstraint`
         (rows in x = [v̇; f]; equality rows after the hard tasks'), or a kinematic constraint with a barrier form
         (``ComPolygonConstraint``, ``SelfCollisionConstraint``), held as
-        :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ = ``gain`` (1/s). Its rows are a gathered entry
-        (:meth:`_write_gathered`): the compiled tick solves the QP with them.
-
-        Returns:
-            the ID constraint added (remove it with it, or with the kinematic constraint).
-
-        Raises:
-            InvalidInputError: another kind of object, bad gain, or a name already in the QP.
-        """
+        :class:`~wbc.constraints.barrier.AccelerationBarrier` with γ = ``gain`` (1/s). Returns the ID constraint added
+        (remove it with it, or with the kinematic constraint). Raises InvalidInputError: another kind of object, bad
+        gain, or a name already in the QP."""
         if isinstance(constraint, InequalityConstraint):
             constraint = AccelerationBarrier(constraint, gain=gain)
         if not isinstance(constraint, IDConstraint) or constraint.kind not in ("equality", "inequality"):
@@ -283,12 +266,43 @@ class InverseDynamicsQP:
         raise ValueError(f"{constraint!r} is not in the QP")
 
     def _new_compiled(self) -> None:
-        """The compiled assembly over this QP's gathered rows and current blocks, and the compiled solver of their
-        sizes as :attr:`chain`'s first rung."""
-        solver = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
-        self._compiled = CompiledIDAssembly(self, self._rows, (self._H, self._g, self._A, self._b, self._C, self._l,
-                                                               self._u, self._lb, self._ub, self._JcT), solver)
-        self.chain.compiled = solver
+        """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and the compiled
+        solver of their sizes as :attr:`chain`'s first rung."""
+        tl, jl, rows = self.torque_limits, self.joint_acceleration_limits, self._rows
+        self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
+                              jl.speed_horizon, 0.0])
+        idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
+        self._compiled = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
+                          IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
+                                   self._JcT),
+                          IDAssemblyWork(rows.Hw, rows.gw, rows.gram, rows.gram_y, np.zeros(jl.dim), np.zeros(jl.dim)))
+        self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
+        self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
+        self._load_compiled()
+
+    def _load_compiled(self) -> None:
+        """Load the compiled assembly and solver once per process: one call of each on the buffers at a neutral
+        state (M = I column-major, h = v = 0, no contact active), every buffer they write restored afterwards."""
+        global _COMPILED_ID_LOADED
+        if _COMPILED_ID_LOADED:
+            return
+        nv, rows, solver = self.nv, self._rows, self.chain.compiled
+        arrays = [a for a in (*rows.tasks, *rows.contacts, *self._compiled[0], *self._compiled[1],
+                              *self._compiled[2], *solver.buffers) if isinstance(a, np.ndarray)]
+        saved = [a.copy() for a in arrays]
+        try:
+            m = id_assemble(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv),
+                                                   self.robot.q_ref.copy(), np.zeros(nv), 0.002),
+                            rows.contacts, *self._compiled)
+            H, g, A, b, C, l, u, lb, ub, _ = self._compiled[1]
+            try:
+                solver.solve(QPData(H, g, A[:max(m, 6)], b[:max(m, 6)], C, l, u, lb, ub))
+            except SolverError:  # any answer loads the kernel; this neutral QP's own is not used
+                pass
+            _COMPILED_ID_LOADED = True
+        finally:
+            for a, a0 in zip(arrays, saved):
+                np.copyto(a, a0)
 
     def _layout_inequalities(self) -> None:
         r = self._r0
@@ -303,8 +317,7 @@ class InverseDynamicsQP:
             self._new_compiled()
 
     def _refresh_contact_rows(self) -> None:
-        """Rewrite the contact blocks whose parameters were assigned since they were written: the force bounds
-        (active, f_min, f_max) and the friction rows (μ); both paths read them from the preallocated blocks."""
+        """Rewrite the force bounds and friction rows whose contact parameters changed since they were written."""
         ctx = self._ctx
         for con, s in zip(self.unilaterality, self._force_slices):
             key = con.key()
@@ -321,9 +334,8 @@ class InverseDynamicsQP:
                  kd: float | None = None, weight=None) -> AccelerationReference:
         """Add a task, weighted or (``hard``) held as the equality ``task:<name>``
         (:class:`~wbc.constraints.hard_task.HardTask`): an :class:`~wbc.formulations.reference.AccelerationReference`,
-        or a :class:`wbc.tasks.base.Task` with its gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight``.
-        Returns the reference added (remove it with it). Raises InvalidInputError: neither; a Task without ``kp``;
-        bad gains or weights."""
+        or a :class:`wbc.tasks.base.Task` with its gains ``kp`` (1/s², required), ``kd`` (1/s) and ``weight``. Returns
+        the reference added. Raises InvalidInputError: neither; a Task without ``kp``; bad gains or weights."""
         if isinstance(task, Task):
             if kp is None:
                 raise InvalidInputError(f"add_task({task.name}): a Task needs its reference gain kp (1/s²)")
@@ -364,15 +376,10 @@ class InverseDynamicsQP:
                 return c
         raise InvalidInputError(f"no contact {name!r}; contacts: {[c.name for c in self.contacts]}")
 
-    def build(self, state: DynamicsState, dt: float):
+    def build(self, state: DynamicsState, dt: float, *, gathered: bool = False):
         """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring), the preallocated arrays written
-        in place by the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every constraint — the compiled tick's
-        bodies, the same numbers bit for bit; constant blocks are not rewritten."""
-        return self._build(state, dt)
-
-    def _build(self, state: DynamicsState, dt: float, gathered: bool = False):
-        """:meth:`build`; ``gathered``: this tick's task rows and contact data are already in the buffers (gathered at
-        this ``state`` by the compiled tick that handed the QP over), not gathered again."""
+        in place by the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every constraint (constant blocks are
+        not rewritten). ``gathered``: the task rows and contact data are already gathered at ``state``."""
         rows = self._rows
         if not gathered:
             rows.gather(self, state)
@@ -404,16 +411,11 @@ class InverseDynamicsQP:
         self._refresh_contact_rows()
         if self.joint_limits:
             jl = self.joint_acceleration_limits
-            if self._jl_slice is not None:
-                jl.write(ctx, None, lb[self._jl_slice], ub[self._jl_slice])
-            else:
-                lo, hi = jl.bounds(state, dt)
-                lb[jl.iv], ub[jl.iv] = lo, hi
+            lb[jl.iv], ub[jl.iv] = jl.bounds(state, dt)
         return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
 
     def _context(self, state: DynamicsState, dt: float) -> IDContext:
-        """The constraints' context of this tick from the gathered contact data: J_cᵀ, the sole Jacobians and the
-        velocity-free parts of eq. 5."""
+        """The constraints' context from the gathered contact data (J_cᵀ, sole Jacobians, eq. 5's offsets)."""
         rows = self._rows
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
@@ -424,15 +426,9 @@ class InverseDynamicsQP:
             offsets[c.name] = rows.cdrift[k]
         return ctx
 
-    @property
-    def _gathers_rows(self) -> bool:
-        """The QP has gathered constraint entries (:meth:`_write_gathered`)."""
-        return bool(self.hard_tasks or self.extra_equalities or self.extra_constraints)
-
     def _write_gathered(self, ctx: IDContext, i: int) -> int:
-        """Write the gathered constraint entries (the rows no compiled body writes: hard tasks' and added
-        equalities' rows of A from row ``i`` on, added inequalities' rows of C) by their ``write``: the one driver of
-        these rows for both assemblies. Returns the row after the last equality row written."""
+        """Write the rows no compiled body writes (hard tasks' and added equalities' rows of A from row ``i`` on,
+        added inequalities' rows of C), for both assemblies. Returns the row after the last equality row."""
         A, b = self._A, self._b
         for con in (*self.hard_tasks, *self.extra_equalities):
             if con.enabled:
@@ -445,8 +441,7 @@ class InverseDynamicsQP:
         return i
 
     def assembled_qp(self) -> tuple | None:
-        """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them (by :meth:`build` or the
-        compiled tick), the QP its solver received; None when no :meth:`solve` assembled one since."""
+        """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them; None when none did."""
         if self._assembled is None:
             return None
         m = self._m
@@ -454,8 +449,7 @@ class InverseDynamicsQP:
                                          self._lb, self._ub))
 
     def _relaxed_set(self, state: DynamicsState, dt: float, l, u, lb, ub):
-        """Copies of (l, u, lb, ub) of the relaxed QP (:meth:`solve_relaxed`): without the relaxable constraints,
-        with the :attr:`joint_speed_limits` bounds at ``state``."""
+        """Copies of (l, u, lb, ub) of the relaxed QP (:meth:`solve_relaxed`)."""
         l, u, lb, ub = self._relax(l, u, lb, ub)
         if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
@@ -475,9 +469,8 @@ class InverseDynamicsQP:
 
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
-        the :attr:`joint_speed_limits` bounds kept (:meth:`wbc.solvers.fallback.FallbackChain.solve_relaxed`). Same
-        returns/raises as :meth:`solve`. ``reuse_assembly``: the arrays of this tick's failed full QP at this same
-        ``state`` object and ``dt`` are reused (and a relaxed hard set it proved empty raises at once)."""
+        the :attr:`joint_speed_limits` bounds kept. Same returns/raises as :meth:`solve`. ``reuse_assembly``: reuse
+        the arrays of this tick's failed full QP at this same ``state`` object and ``dt``."""
         t0 = perf_counter()
         same_tick = reuse_assembly and self._assembled == (id(state), dt)
         if same_tick:
@@ -504,13 +497,9 @@ class InverseDynamicsQP:
         return sol
 
     def solve(self, state: DynamicsState, dt: float) -> IDSolution:
-        """Assemble the QP at ``state`` for control period ``dt`` (s) (:meth:`_assemble`), solve it by :attr:`chain`
-        (the compiled solver first, with ``solver="fast"``) and decode the answer (:meth:`solution_from`). The
-        solution passes the output check (:meth:`verify`; :meth:`_guard_full` refines an answer of the ladder off by
-        the solver's precision).
-
-        Returns:
-            :class:`IDSolution` (``path``, and ``reason`` when the compiled route did not answer).
+        """Assemble the QP at ``state`` for control period ``dt`` (s), solve it by :attr:`chain` and decode the
+        answer into an :class:`IDSolution` that passes the output check (:meth:`verify`; an answer of the ladder off by
+        the solver's precision is refined first).
 
         Raises:
             InvalidInputError: dt not finite and > 0.
@@ -546,26 +535,30 @@ class InverseDynamicsQP:
         return self._guard_full(state, sol, qp)
 
     def _assemble(self, state: DynamicsState, dt: float) -> tuple[QPData, str]:
-        """The QP at ``state`` (views of the arrays): by the compiled assembly
-        (:class:`~wbc.formulations.id_compiled.CompiledIDAssembly`) when the QP has one, else by :meth:`build`; and
-        why the compiled solver is not asked ('' when it is): two or more active contacts whose rows are not
-        certified independent go to :meth:`build`, which drops their dependent directions."""
+        """The QP at ``state`` (views of the arrays), by :func:`~wbc.formulations.idkernel.id_assemble` on the compiled
+        route, else by :meth:`build`; and why the compiled solver is not asked ('' when it is)."""
         compiled = self._compiled
         if compiled is None:
             return QPData(*self.build(state, dt)), ""
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
-        extra = 0
-        if self._gathers_rows:  # their rows written here, after the active contacts' equality rows
+        par = self._par
+        par[PAR_EXTRA_ROWS] = 0
+        if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # after the active contacts' rows
             m0 = 6 + 6 * int(np.count_nonzero(rows.active))
-            extra = self._write_gathered(self._context(state, dt), m0) - m0
+            par[PAR_EXTRA_ROWS] = self._write_gathered(self._context(state, dt), m0) - m0
         jl = self.joint_acceleration_limits
         self.chain.compiled.max_iterations = self.kernel_max_iterations
-        m = compiled.assemble(rows, IDDynamics(state.M, state.h, state.q, state.v, dt),
-                              (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon), extra)
-        if m == PROJECT_CONTACT_RHS:
-            return QPData(*self._build(state, dt, gathered=True)), "kernel: dependent contact rows"
+        par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = (
+            self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon)
+        args = (rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *compiled)
+        if self._id_assemble is None:  # the buffers' and the state's types are fixed (with kernel type checks on,
+            # the dispatcher, which resolves them on every call)
+            self._id_assemble = id_assemble if CHECK_TYPES else specialise(id_assemble, *args)
+        m = self._id_assemble(*args)
+        if m == PROJECT_CONTACT_RHS:  # build drops the dependent directions
+            return QPData(*self.build(state, dt, gathered=True)), "kernel: dependent contact rows"
         self._m = m
         return QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub), ""
 
@@ -575,18 +568,9 @@ class InverseDynamicsQP:
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
     def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
-        """The output check of a full-QP answer of the chain, given the QP it solved: an answer that fails it by at
-        most :data:`OUTPUT_REFINE_RANGE` (relative: the solver's precision, e.g. a torque row whose terms are large
-        against its limit) is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`: polished, else
-        quadprog's) before :attr:`chain`'s ``retry_deadline``; one further off fails the tick.
-
-        Returns:
-            ``sol``, or the refined solution (path ``general:<backend>`` polished, ``general:quadprog``).
-
-        Raises:
-            SolverError: no candidate passes the output check (the message and :attr:`last_violations` are those
-                of ``sol``).
-        """
+        """``sol`` (a full-QP answer of the chain to ``qp``) when it passes the output check; one failing it by at
+        most :data:`OUTPUT_REFINE_RANGE` is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`) before the
+        chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate passes."""
         viol = self.verify(state, sol)
         if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=OUTPUT_REFINE_RANGE)
                 and thread_time() < self.chain.retry_deadline):
@@ -601,8 +585,7 @@ class InverseDynamicsQP:
         return sol
 
     def _candidate(self, state: DynamicsState, sol: IDSolution, x: np.ndarray, solver: str | None):
-        """The solution of a refined candidate ``x`` of ``sol`` (``solver``: the one that gave it, None: ``sol``'s
-        polished) when it passes :meth:`verify`, else None."""
+        """The solution of a refined candidate ``x`` of ``sol`` (``solver`` None: polished) if it passes, else None."""
         cand = self.solution_from(state, x, timings=sol.timings)
         cand.path = sol.path if solver is None else TickPath("general", solver)
         cand.reason = f"{sol.reason or 'output check'} → {'polished' if solver is None else solver}"
@@ -610,14 +593,10 @@ class InverseDynamicsQP:
 
     def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
-        """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.id_output_check.IDOutputCheck`), at
-        relative tolerance ``tol`` (default the backend's); the torque limits skipped when ``relaxed`` (the
-        controller clips the relaxed torques).
-
-        Returns:
-            [(constraint name, violation in its units)], largest scaled first; empty when the solution passes.
-            A non-finite solution gives ``("non_finite_command", nan)`` followed by :meth:`nonfinite_inputs`.
-        """
+        """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
+        relative tolerance ``tol`` (default the backend's), without the torque limits when ``relaxed``. Returns
+        [(constraint name, violation in its units)], largest scaled first, [] when it passes;
+        ``[("non_finite_command", nan), *nonfinite_inputs()]`` for a non-finite solution."""
         found = self.output_check.violations(state.h, sol, self.backend.tolerance if tol is None else float(tol),
                                              relaxed)
         return [("non_finite_command", float("nan")), *self.nonfinite_inputs()] if found is None else found
@@ -644,19 +623,15 @@ class InverseDynamicsQP:
         return conflicts
 
     def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None) -> IDSolution:
-        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (τ by eq. 2, residual of eq. 1, sole wrenches:
-        :func:`~wbc.formulations.idkernel.id_command`, the compiled tick's).
-
-        Uses the matrices and contact data of the last assembly (:meth:`build`, or a :meth:`solve`) at this state.
-        """
+        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (:func:`~wbc.formulations.idkernel.id_command`),
+        from the matrices and contact data of the last assembly at this state."""
         nv = self.nv
         x = np.array(x, dtype=float)  # a fresh contiguous copy: dv and forces are views of it
         rows = self._rows
         tau = np.empty(nv - 6)
         wrench = np.empty((len(self.contacts), 6))
         args = (state.M, state.h, self._JcT, rows.Gc, rows.Rc, rows.active, x, tau, wrench)
-        if self._id_command is None:  # a DynamicsState's and the buffers' types are fixed (wbc.compiled.specialise;
-            # with kernel type checks on, the dispatcher, which resolves them on every call)
+        if self._id_command is None:  # fixed types, as id_assemble's
             self._id_command = id_command if CHECK_TYPES else specialise(id_command, *args)
         residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
@@ -673,3 +648,15 @@ def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> Solve
     """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
     return SolverError(f"{sol.path} returned a command that fails the output check: "
                        + ", ".join(f"{n} ({v:.3g})" for n, v in viol))
+
+
+def nonfinite_references(references) -> list[tuple[str, float]]:
+    """``(task:<name>, nan)`` for every acceleration reference whose error (at the last assembly), weights or
+    acceleration feed-forward are not finite — e.g. a target or weight array written in place with a NaN."""
+    out = []
+    for ref in references:
+        ff = ref.feedforward_acceleration
+        if not (np.isfinite(ref.last_error).all() and np.isfinite(ref.weight).all()
+                and (ff is None or np.isfinite(ff).all())):
+            out.append((f"task:{ref.name}", float("nan")))
+    return out

@@ -1,9 +1,6 @@
-"""The per-tick inputs of the inverse-dynamics QP, gathered once per tick (:class:`IDProblemRows`): the task rows
-(J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w) and the contact data (sole Jacobians, corner maps, eq. 5's right-hand side,
-activity, sole rotations), in the stacked buffers that both assemblies read — the formulation's constraints
-(:meth:`wbc.formulations.acceleration.InverseDynamicsQP.build`) and the compiled tick
-(:mod:`wbc.formulations.id_compiled`).
-"""
+"""The per-tick inputs of the inverse-dynamics QP (:class:`IDProblemRows`), gathered once per tick into the stacked
+buffers both assemblies read (:meth:`wbc.formulations.acceleration.InverseDynamicsQP.build` and
+:func:`wbc.formulations.idkernel.id_assemble`)."""
 
 from __future__ import annotations
 
@@ -18,8 +15,7 @@ __all__ = ["IDProblemRows"]
 
 
 def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
-    """Write a feed-forward term (ė_ff or ä_ff, (m,)) into its row of R: ``ff``, or zeros if None. Returns whether
-    the row now holds zeros."""
+    """Write ``ff`` (ė_ff or ä_ff, (m,); None: zeros) into its row of R. Returns whether the row holds zeros."""
     if ff is None:
         row.fill(0.0)
         return True
@@ -28,10 +24,9 @@ def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
 
 
 class IDProblemRows:
-    """The per-tick inputs of the module docstring: the task rows of :func:`~wbc.formulations.idkernel.task_cost`
-    (re-laid out only when the task list changes) and the contact data (LOCAL sole Jacobians, corner maps,
-    −J̇v − K_p e, K_d, activity, sole rotations). ``qp``: the
-    :class:`~wbc.formulations.acceleration.InverseDynamicsQP` (its nv, contacts, tasks)."""
+    """The task rows of :func:`~wbc.formulations.idkernel.task_cost` (J, e, ė_ff, J̇v, ä_ff, Kp, Kd, w; re-laid out
+    when the task list changes) and the contact data (LOCAL sole Jacobians, corner maps, −J̇v − K_p e, K_d, activity,
+    sole rotations) of ``qp``, an :class:`~wbc.formulations.acceleration.InverseDynamicsQP`."""
 
     def __init__(self, qp):
         nv, nc = qp.nv, len(qp.contacts)

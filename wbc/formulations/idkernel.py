@@ -1,22 +1,11 @@
-"""Compiled assembly of the inverse-dynamics QP (the ``fast`` route of
-:class:`~wbc.formulations.acceleration.InverseDynamicsQP`), and the torques of a solution.
+"""Compiled assembly of the inverse-dynamics QP of :mod:`wbc.formulations.acceleration` (its ``fast`` route,
+:func:`id_assemble`), the torques of a solution (:func:`id_command`) and the output check (:func:`output_violations`).
 
-The QP is the one of :mod:`wbc.formulations.acceleration`, written by the same compiled bodies:
-:func:`id_assemble` writes the cost by :func:`task_cost` and the state-dependent constraint blocks by the bodies of
-:mod:`wbc.constraints` that the constraints' ``write`` call on the general path
-(:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`). From Python
-come the stacked task rows gathered for both paths: per row J (dense rows, stacked) or its v index (posture rows)
-and the numbers e, ė_ff, J̇v, ä_ff, Kp, Kd, w of its reference (eq. 1 of :mod:`wbc.formulations.reference`); M, h;
-the LOCAL sole Jacobians and the velocity-free part −J̇v − K_p e of eq. 5; the state (q, v). The assembly forms
-
-    r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v,   H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,
-    g_v = −Σ_i J_iᵀ W_i r_i,   J_cᵀ = [J_kᵀ G_k]_k,   A, b (eq. 4, 5),  C, l, u torque rows (eq. 6),
-    lb, ub joint bounds (eq. 9),
-
-into the formulation's preallocated arrays (the constant blocks — force regularisation ε_f I, friction rows (7),
-force bounds (8) — are already there, written by their constraints), bitwise the arrays :meth:`build` writes at the
-same state (``tests/formulations/test_formulations_acceleration.py``). The formulation hands them to its fallback
-chain, whose first rung is the compiled exact solver :class:`~wbc.solvers.compiled_id.CompiledIDSolver`.
+:func:`id_assemble` writes the cost (:func:`task_cost`) and the state-dependent constraint blocks with the same
+compiled bodies of :mod:`wbc.constraints` that the constraints' ``write`` call in
+:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`, from the task rows and contact data gathered for both
+(:mod:`wbc.formulations.id_rows`): bitwise the arrays ``build`` writes at the same state
+(``tests/formulations/test_formulations_acceleration.py``).
 """
 
 from __future__ import annotations
@@ -26,7 +15,7 @@ from collections import namedtuple
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH, once_per_process
+from wbc.compiled import CHECK_TYPES, FASTMATH, once_per_process, specialise
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
 from wbc.constraints.joint_acceleration_bounds import JointRange, joint_bounds_kernel
@@ -36,34 +25,27 @@ from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
 __all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
            "output_violations", "contact_views", "task_cost", "PROJECT_CONTACT_RHS", "IDTaskRows", "IDDynamics",
-           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs"]
+           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
+           "IDOutputCheck"]
 
-#: the arguments of :func:`id_assemble`, one namedtuple per group of its arguments (numba takes them as tuples):
-#: the stacked task rows of :func:`task_cost`
+#: the arguments of :func:`id_assemble` (namedtuples, fields described there)
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
-#: the state's dynamics, (q, v) and the control period dt (s)
 IDDynamics = namedtuple("IDDynamics", "M h q v dt")
-#: the contact data (:func:`contact_views`) and the activity of each contact
 IDContactData = namedtuple("IDContactData", "cbuf active")
-#: the limits' indices and numbers, and the settings vector ``par`` (``PAR_*``)
 IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
-#: the formulation's QP arrays, written in place
 IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
-#: the assembly's workspace (:func:`id_assemble`)
 IDAssemblyWork = namedtuple("IDAssemblyWork", "Hw gw gram gram_y jlo jhi")
-#: the output check's (:func:`output_violations`) bounds on the corner forces, the contacts' friction rows and
-#: activity, and its results
+#: the buffers of :func:`output_violations`
 IDOutputBuffers = namedtuple("IDOutputBuffers", "lbf ubf friction active out")
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
-    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.contact_acceleration.independent_contact_rows` would keep every row
-    and need not run (its eigen-decomposition is the tick's largest numpy call). With G = J Jᵀ
-    (eigenvalues λ = σ²): λ_min ≥ 1 / tr(G⁻¹) and λ_max ≤ tr(G), so 1 / tr(G⁻¹) ≥ ratio² tr(G) implies
-    λ_min ≥ ratio² λ_max. tr(G⁻¹) = ‖L⁻¹‖_F² from the Cholesky factor L of G. False (no certificate) when that
-    bound does not hold or G is not positive definite.
+    σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.contact_acceleration.independent_contact_rows` would keep
+    every row and need not run. With G = J Jᵀ: λ_min ≥ 1 / tr(G⁻¹) = 1 / ‖L⁻¹‖_F² (L Lᵀ = G) and λ_max ≤ tr(G), so
+    1 / tr(G⁻¹) ≥ ratio² tr(G) implies λ_min ≥ ratio² λ_max. False when that bound does not hold or G is not
+    positive definite.
 
     Args:
         Jc (nc, 6, nv): contact Jacobians; active (nc,) bool; ratio: σ / σ_max threshold; G (6 nc, 6 nc), y (6 nc,):
@@ -112,9 +94,8 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
 
 @nb.njit(cache=True, nogil=True, inline="always")
 def contact_views(cbuf, nc, nv):
-    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of :func:`id_assemble`
-    as C-ordered disjoint views of one float64 buffer cbuf (nc (6 nv + 88),), in that order. Compiled (inlined in
-    :func:`id_assemble`) and callable from Python alike."""
+    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of
+    :func:`id_assemble` as disjoint views of one float64 buffer cbuf (nc (6 nv + 88),)."""
     o = 6 * nv * nc
     Jc = cbuf[0:o].reshape((nc, 6, nv))
     Gc = cbuf[o:o + 72 * nc].reshape((nc, 6, 12))
@@ -128,8 +109,7 @@ def contact_views(cbuf, nc, nv):
 
 
 #: :func:`id_assemble` exit code: two or more active contacts whose stacked rows are not certified
-#: well conditioned (:func:`contact_rows_well_conditioned`); the caller assembles the tick on its general path, which
-#: drops the dependent directions (:func:`wbc.constraints.contact_acceleration.independent_contact_rows`).
+#: well conditioned (:func:`contact_rows_well_conditioned`); the caller's ``build`` drops the dependent directions
 PROJECT_CONTACT_RHS = -10
 
 #: entries of :func:`id_assemble`'s ``par`` vector
@@ -140,11 +120,9 @@ R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
-    """The cost (3) of the ID QP from the stacked task rows, written into H[:nv, :nv] and g[:nv] (the force block
-    H_ff = ε_f I is constant and left as it is):
-
-        r = ä_ff − Kp e − Kd (J v − ė_ff) − J̇v   (:mod:`wbc.formulations.reference`, eq. 1),
-        H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,   g_v = −Σ_i J_iᵀ W_i r_i.
+    """The cost (3) of the ID QP from the stacked task rows, written into H[:nv, :nv] and g[:nv] (H_ff = ε_f I is
+    left as it is): r by eq. 1 of :mod:`wbc.formulations.reference`, H_vv = Σ_i J_iᵀ W_i J_i + diag(w_posture) + ε_a I,
+    g_v = −Σ_i J_iᵀ W_i r_i.
 
     Args:
         Jt (mt, nv): stacked Jacobians of the dense task rows. R (7, mt + kp): per task row (dense rows, then the
@@ -178,14 +156,9 @@ def task_cost(Jt, R, pidx, rt, v, eps_a, Hw, gw, H, g):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
-    """The command of a QP solution x = [v̇; f] (n,): the torques τ = M_a v̇ + h_a − (J_cᵀ)_a f (eq. 2) into tau
-    (nv − 6,), and each active sole's wrench G_k f_k at its origin in world axes (N, N·m; Rc (nc, 3, 3) world ←
-    sole) into wrench (nc, 6), zero for an inactive contact. Used by the compiled tick and by
-    :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solution_from` alike.
-
-    Returns:
-        ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m), the residual of eq. 1's unactuated rows.
-    """
+    """The command of a QP solution x = [v̇; f] (n,): the torques of eq. 2 into tau (nv − 6,), and each active
+    sole's wrench G_k f_k at its origin in world axes (N, N·m; Rc (nc, 3, 3) world ← sole) into wrench (nc, 6), zero
+    for an inactive contact. Returns ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m), the residual of the unactuated rows."""
     nv = M.shape[0]
     nf = x.shape[0] - nv
     worst = 0.0
@@ -215,35 +188,21 @@ def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_assemble(tasks, dynamics, contacts, limits, qp, work):
-    """Write the state-dependent blocks of the ID QP into the formulation's arrays with the compiled bodies that
-    :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build` calls through the constraints' ``write``: the
-    cost (:func:`task_cost`), J_cᵀ (:func:`~wbc.constraints.floating_base.contact_force_columns`), eq. 4
-    (:func:`~wbc.constraints.floating_base.floating_base_rows`), eq. 5 of each active contact
-    (:func:`~wbc.constraints.contact_acceleration.contact_acceleration_rows`), eq. 6
-    (:func:`~wbc.constraints.torque_limits.torque_limit_rows`) and eq. 9
-    (:func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`, when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The
-    constant blocks (ε_f I, friction rows, force bounds) are the formulation's, written by their constraints; so are
-    the gathered rows of its other constraints (hard tasks and added equalities: ``par[PAR_EXTRA_ROWS]`` rows of A
-    after the active contacts'; added inequalities: their rows of C), written before the call.
+    """Write the state-dependent blocks of the ID QP (module docstring) into the formulation's arrays: the cost, J_cᵀ
+    and eqs. 4, 5 (active contacts), 6 and 9 (when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant blocks (ε_f I,
+    friction rows, force bounds) and the rows of hard tasks and added constraints (``par[PAR_EXTRA_ROWS]`` rows of A
+    after the active contacts') are the formulation's, written before the call.
 
-    Args (namedtuples, the fields below):
-        tasks (:data:`IDTaskRows`): Jt (mt, nv), R (7, mt + kp), pidx (kp,), rt (mt + kp,): the stacked task rows
-            of :func:`task_cost`.
-        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,): the state's dynamics and (q, v); dt:
-            control period (s).
-        contacts (:data:`IDContactData`): cbuf: the contact data (:func:`contact_views`): Jc (nc, 6, nv),
-            Gc (nc, 6, 12), LOCAL sole Jacobians and corner maps; Rc (nc, 3, 3): sole rotations (world ← sole);
-            cdrift (nc, 6), ckd (nc,): eq. 5 right-hand side cdrift − K_d J v (cdrift = −J̇v − K_p e). active (nc,)
-            bool.
-        limits (:data:`IDLimits`): idx int64: [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the
-            torque-limited joints, then the q and v indices of the joint-bounded ones; lim (nt,): their torque limits
-            (N·m). par (6,): ε_a, a_brk, joint limits on (≠ 0), contact conditioning ratio, speed horizon in ticks,
-            gathered equality rows written after the active contacts' (``PAR_*``). qmin, qmax, vmax (k,): joint-limit
-            data (eq. 9).
-        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT: the formulation's arrays (written in place; A has
-            room for every contact).
-        work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,): :func:`task_cost`; gram (6 nc, 6 nc), gram_y (6 nc,):
-            :func:`contact_rows_well_conditioned`; jlo, jhi (k,): joint bounds.
+    Args (namedtuples):
+        tasks (:data:`IDTaskRows`): the stacked task rows of :func:`task_cost`.
+        dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,) of the state; dt: control period (s).
+        contacts (:data:`IDContactData`): cbuf, the contact data of :func:`contact_views` (LOCAL sole Jacobians,
+            corner maps, sole rotations world ← sole, eq. 5's cdrift = −J̇v − K_p e and K_d); active (nc,) bool.
+        limits (:data:`IDLimits`): idx int64 [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited
+            joints, then the q and v indices of the joint-bounded ones; lim (nt,) their torque limits (N·m); par (6,)
+            the settings ``PAR_*``; qmin, qmax, vmax (k,) joint-limit data (eq. 9).
+        qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT, written in place (A has room for every contact).
+        work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,), gram (6 nc, 6 nc), gram_y (6 nc,), jlo, jhi (k,).
 
     Returns:
         m, the number of equality rows (6 + 6 per active contact + ``par[PAR_EXTRA_ROWS]``), or PROJECT_CONTACT_RHS
@@ -285,13 +244,12 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
 
 @nb.njit(cache=True, nogil=True)
 def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
-    """The output check of a command (:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) in one call:
+    """The output check of a command (:class:`IDOutputCheck`) in one call:
     dv (nv,), corner forces f (12 n_c,), torques tau (nv − 6,), the dynamics residual (N, N·m) and h (nv,), the
     limited joints (k,) int64 (into τ) and their limits (k,) (k = 0: no torque check); of ``buffers``
     (:data:`IDOutputBuffers`) the forces' bounds lbf, ubf (12 n_c,), the contacts' (n_c, 16, 12) friction rows and
-    (n_c,) activity. Writes (scaled violation, violation in the constraint's units) into ``buffers.out``
-    (2 n_c + 2, 2): row 2i the force bounds of contact i, row 2i + 1 its friction
-    rows (−inf when inactive), row 2 n_c the torque limits (−inf without a check), the last the floating-base rows.
+    (n_c,) activity. Writes (scaled violation, violation) into ``buffers.out`` (2 n_c + 2, 2): rows 2i, 2i + 1 the
+    force bounds and friction rows of contact i (−inf inactive), then the torque limits (−inf: none), the base rows.
 
     Returns:
         -1 when an entry of dv, f or tau is not finite (out not written), 1 when a scaled violation exceeds tol, else 0.
@@ -358,10 +316,8 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
 
 @once_per_process
 def load_id_kernels() -> None:
-    """Load (on-disk cache) or compile, once per process, the kernels the general path calls from Python —
-    :func:`task_cost`, :func:`id_command`, :func:`contact_rows_well_conditioned` — on arrays of the types of a real
-    call (M column-major as a :class:`~wbc.state.DynamicsState`'s), at construction of an
-    :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
+    """Load, once per process, the kernels called from Python on arrays of a real call's types (M column-major), at
+    construction of an :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
     nv = 8
     Jt, R, pidx = np.zeros((1, nv)), np.zeros((7, 2)), np.zeros(1, np.int64)
     task_cost(Jt, R, pidx, np.zeros(2), np.zeros(nv), 1e-6, np.empty((nv, nv)), np.empty(nv),
@@ -376,8 +332,58 @@ def load_id_kernels() -> None:
 
 
 def output_inputs(nv: int, nc: int, strided: bool = False) -> tuple:
-    """Zeros of the types of :func:`output_violations`' solution inputs (dv (nv,), f (12 nc,), tau (nv − 6,), h
-    (nv,)): contiguous, or strided (numba layout 'A': the version :class:`~wbc.formulations.id_output_check.IDOutputCheck`
-    calls, which reads arrays of any strides; nv ≥ 8, as numpy flags a strided array of one entry contiguous)."""
+    """Zeros of the types of :func:`output_violations`' dv (nv,), f (12 nc,), tau (nv − 6,), h (nv,): contiguous, or
+    strided (numba layout 'A', the version called on arrays of any strides; nv ≥ 8, as numpy flags a strided array
+    of one entry contiguous)."""
     k = 2 if strided else 1
     return tuple(np.zeros(k * n)[::k] for n in (nv, 12 * nc, nv - 6, nv))
+
+
+class IDOutputCheck:
+    """The output check of the solutions of one QP (:func:`output_violations` on preallocated buffers), independent
+    of the solver: every entry finite; corner normal forces within their bounds (``unilaterality:<c>``, N); the
+    friction pyramids (``friction:<c>``, N); the torque limits (``torque_limits``, N·m); the floating-base rows
+    (``floating_base_dynamics``, N, N·m). Each violation is compared with a relative tolerance times the row's scale
+    — max(1, |bound|) for a bound, max(1, |f_t| + μ/√2 |f_z|) for a friction row, the largest |h_u| entry for the
+    base rows — as :meth:`wbc.solvers.base.QPBackend.scaled_violation` scales them.
+
+    Args:
+        contacts: the QP's sole contacts. torque_limits: its :class:`~wbc.constraints.torque_limits.TorqueLimits`.
+        force_lb, force_ub: (12 n_c,) views of the QP's bounds on the corner forces (written by the constraints).
+    """
+
+    def __init__(self, contacts, torque_limits, force_lb: np.ndarray, force_ub: np.ndarray):
+        nc = len(contacts)
+        self.contacts = contacts
+        self.torque_limits = torque_limits
+        self._buffers = IDOutputBuffers(force_lb, force_ub, np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_),
+                                        np.zeros((2 * nc + 2, 2)))
+        self._no_joints = np.zeros(0, np.int64)
+        self._kernel = None  # violations' compiled call, specialised at its first call
+
+    def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
+        """[(constraint name, violation in its units)] of the solution ``sol`` (an
+        :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
+        scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
+        None when an entry of the solution is not finite."""
+        _, _, friction, active, out = self._buffers
+        contacts = self.contacts
+        for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
+            friction[k] = c.friction_matrix
+            active[k] = c.active
+        tl = self.torque_limits
+        joints = self._no_joints if relaxed or not tl.joints.size else tl.joints
+        args = (sol.dv, sol.forces, sol.tau, float(sol.dynamics_residual), h, joints, tl.limits, tol, self._buffers)
+        kernel = self._kernel
+        if kernel is None:  # for a solution and h of any strides (with kernel type checks on, the dispatcher)
+            dv, f, tau, h_any = output_inputs(8, 1, strided=True)  # (types only: any sizes)
+            kernel = self._kernel = output_violations if CHECK_TYPES else specialise(
+                output_violations, dv, f, tau, args[3], h_any, *args[5:])
+        status = kernel(*args)
+        if status <= 0:
+            return None if status < 0 else []
+        names = [f"{kind}:{c.name}" for c in contacts for kind in ("unilaterality", "friction")]  # rows of out
+        found = [(float(out[r, 0]), name, float(out[r, 1]))  # (scaled, name, violation)
+                 for r, name in enumerate((*names, "torque_limits", "floating_base_dynamics")) if out[r, 0] > tol]
+        found.sort(key=lambda item: -item[0])
+        return [(name, v) for _, name, v in found]

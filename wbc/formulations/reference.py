@@ -5,10 +5,9 @@ The task itself (any :class:`wbc.tasks.base.Task`) states its error e(q), Jacobi
 
     J v̇ = r,    r = a* − J̇ v,    a* = ä_ff − Kp e − Kd (J v − ė_ff)                                    (1)
 
-with ė_ff the task's own feed-forward (:meth:`~wbc.tasks.base.Task.feedforward`, the same one the velocity level
-uses), ä_ff an acceleration feed-forward and the gains Kp (1/s²), Kd (1/s; default the critically damped 2√Kp).
-This module holds only those gains, the weight and ä_ff: :class:`AccelerationReference`. It is not a second task
-class (there is no per-task subclass); the velocity formulation uses the same task object with (J, v*).
+with ė_ff the task's own feed-forward (:meth:`~wbc.tasks.base.Task.feedforward`), ä_ff an acceleration feed-forward
+and the gains Kp (1/s²), Kd (1/s; default the critically damped 2√Kp), held with the weight and ä_ff by
+:class:`AccelerationReference` (not a second task class: the velocity formulation uses the same task object).
 
 Centroidal angular-momentum regulation L̇ = L̇_ff − K (L − L*) is an :class:`AccelerationReference` with Kp = 0 and
 Kd = K on a :class:`~wbc.tasks.AngularMomentumTask` (e ≡ 0, J = A_g[3:6], ė_ff = its target L*).
@@ -33,16 +32,13 @@ __all__ = ["AccelerationReference"]
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 def reference_rhs(acc_ff, kp, e, kd, e_dot, e_dot_ff, drift):
-    """Eq. 1 for one task row: r = ä_ff − Kp e − Kd (ė − ė_ff) − J̇v with ė = J v (task units /s²). The one formula
-    of the right-hand side, used by :meth:`AccelerationReference.compute` (hard tasks) and by
-    :func:`wbc.formulations.idkernel.task_cost` (the weighted tasks of both assemblies)."""
+    """Eq. 1 for one task row, ė = J v given (task units /s²): the one formula of r, for hard and weighted tasks."""
     return acc_ff - kp * e - kd * (e_dot - e_dot_ff) - drift
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def reference_rows(J, e, e_dot_ff, drift, acc_ff, kp, kd, v, r):
-    """r (m,) of eq. 1 (:func:`reference_rhs`) for the rows J (m, nv), e, ė_ff, J̇v, ä_ff (m,) of one task at
-    velocity v (nv,), written into r."""
+    """r (m,) ← eq. 1 for the rows J (m, nv), e, ė_ff, J̇v, ä_ff (m,) of one task at velocity v (nv,)."""
     nv = J.shape[1]
     for k in range(J.shape[0]):
         jv = 0.0
@@ -53,7 +49,7 @@ def reference_rows(J, e, e_dot_ff, drift, acc_ff, kp, kd, v, r):
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`reference_rows` (on-disk cache) once per process, at construction of a reference."""
+    """Load :func:`reference_rows` once per process, at construction of a reference."""
     z = np.zeros(1)
     reference_rows(np.zeros((1, 1)), z, z, z, z, 1.0, 1.0, z, np.empty(1))
 
@@ -65,8 +61,7 @@ class AccelerationReference:
         task: the task (:class:`wbc.tasks.base.Task` with a :meth:`~wbc.tasks.base.Task.drift`).
         kp: stiffness Kp (1/s²), ≥ 0.
         kd: damping Kd (1/s), ≥ 0; default 2√Kp.
-        weight: scalar or (m,) cost weights; default a copy of the task's weight at construction (the reference
-            owns its weight: in-place edits of either do not reach the other).
+        weight: scalar or (m,) cost weights; default a copy of the task's weight at construction.
         name: label (default the task's name).
 
     Attributes:
@@ -137,10 +132,7 @@ class AccelerationReference:
         return self._acc_ff
 
     def compute(self, state: DynamicsState) -> tuple[np.ndarray, np.ndarray]:
-        """(J (m, nv), r (m,)) such that the task asks J v̇ = r, r = a* − J̇ v (eq. 1).
-
-        Returns arrays the caller may not keep across ticks.
-        """
+        """(J (m, nv), r (m,)) of eq. 1 (the task asks J v̇ = r), arrays the caller may not keep across ticks."""
         task = self.task
         e, J = task.compute(state)
         self.last_error = e

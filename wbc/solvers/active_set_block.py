@@ -1,11 +1,9 @@
-"""The block strategy of the compiled dual active-set solver (:func:`wbc.solvers.active_set.dual_active_set` on a
-:class:`~wbc.solvers.active_set.BlockSpace`): H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP:
-accelerations, then forces regularised by ε_f I). The bounds held by the working set are eliminated (the variables
-fixed on them), L Lᵀ = H_vv on the free accelerations (kept while they do not change), D⁻¹ on the free forces, and
-the Schur complement of the working rows (range-space method, Nocedal & Wright 2006, *Numerical Optimization*,
-§16.2); each equality-constrained optimum gets two steps of iterative refinement. The operations
-(``block_prepare``, ``block_start``, ``block_eqp``, ``block_target``, ``block_direction``, ``block_add``,
-``block_remove``) are those the dense strategy of :mod:`wbc.solvers.active_set` has, with the same arguments."""
+"""The block strategy of :func:`wbc.solvers.active_set.dual_active_set` (on a
+:class:`~wbc.solvers.active_set.BlockSpace`; the operations of the dense strategy, same arguments) for
+H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP): held bounds eliminated, L Lᵀ = H_vv on the free
+accelerations (kept while they do not change), D⁻¹ on the free forces, and the Schur complement of the working rows
+(range-space method, Nocedal & Wright 2006, *Numerical Optimization*, §16.2), with two steps of iterative
+refinement per equality-constrained optimum."""
 
 from __future__ import annotations
 
@@ -27,8 +25,7 @@ def _row(A, C, m, rk):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _free_dot(acc, with_v, y, w, nfv, R, X, ffree, nff, H):
-    """acc + (y·w over the nfv free joint coordinates, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free
-    force coordinates f (the two terms of a row product through H_FF⁻¹)."""
+    """acc + (y·w over the nfv free accelerations, when ``with_v``) + Σ_f R[f] X[f] / H[f, f] over the free forces."""
     if with_v:
         for i in range(nfv):
             acc += y[i] * w[i]
@@ -81,10 +78,8 @@ def _kkt(qp, sp, mw, a, c, y, rho):
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def block_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
     """x = optimum of the working set's equality-constrained QP (held variables on their bound), ν of the equality
-    rows in nu[:m], and the multipliers λ ≥ 0 expected of its inequalities in  H x + g = Aᵀν' + Σ_j λ_j n_j  (n_j =
-    ±e_i for a bound, ±C_r for a row, oriented into the feasible side): λ_i = σ_i (H x + g + R_wᵀ ρ)_i in lam_b for
-    a bound held at its lower (σ = 1) or upper (σ = −1) value, λ_r = s_r ρ_r in lam_r for a row held at l (s = −1)
-    or u (s = +1)."""
+    rows in nu[:m], and the multipliers of its inequalities (≥ 0 expected, normals oriented into the feasible side):
+    λ_i = σ_i (H x + g + R_wᵀ ρ)_i in lam_b (σ = 1 at lb, −1 at ub), λ_r = s_r ρ_r in lam_r (s = −1 at l, +1 at u)."""
     H, g, A, b, m, C, l, u, lb, ub = qp
     nv, rows, a, c, ra, rc, dx, drho, nuw = sp.nv, sp.rows, sp.a, sp.c, sp.ra, sp.rc, sp.dx, sp.drho, sp.nuw
     n = H.shape[0]
@@ -171,11 +166,10 @@ def block_prepare(qp, sp):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def block_start(qp, sp, state, rstate):
-    """Factor the working set: free accelerations F_v and forces F_f (``state`` = 0), L Lᵀ = H_vv[F_v, F_v] (kept
-    from the previous call when F_v did not change, ``fac[0]``), the working rows (A[:m], then the active rows
-    of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ in S. Returns the
-    number of working rows, NOT_POSITIVE_DEFINITE, or DEPENDENT_EQUALITIES when a row is (numerically, squared
-    sine below ``sp.dep_tol``) a combination of the ones before it."""
+    """Factor the working set: L Lᵀ = H_vv[F_v, F_v] on the free accelerations (kept while F_v is unchanged,
+    ``fac[0]``), the working rows (A[:m], then the active rows of C) in ``rows``, Yv_k = L⁻¹ (R_k)_{F_v} and the
+    Cholesky factor of S = R_F H_FF⁻¹ R_Fᵀ. Returns the number of working rows, NOT_POSITIVE_DEFINITE, or
+    DEPENDENT_EQUALITIES (a row's squared sine to the ones before it below ``sp.dep_tol``)."""
     H, A, m, C = qp[0], qp[2], qp[4], qp[5]
     nv, rows, Yv, S, L, vfree, ffree, vrow, fac = sp.nv, sp.rows, sp.Yv, sp.S, sp.L, sp.vfree, sp.ffree, sp.vrow, sp.fac
     n = H.shape[0]

@@ -1,36 +1,21 @@
-"""The compiled exact solver of the inverse-dynamics QP (:class:`CompiledIDSolver`): the first rung of the ID
-formulation's :class:`~wbc.solvers.fallback.FallbackChain` (``solver="fast"``), on the
-:class:`~wbc.solvers.qp_data.QPData` the formulation assembled, warm-started from its own last working set (or from
-the answer of the rung that answered after it gave up, :meth:`CompiledIDSolver.warm`).
+"""The compiled exact solver of the inverse-dynamics QP (:class:`CompiledIDSolver`), the first rung of the ID
+formulation's :class:`~wbc.solvers.fallback.FallbackChain` (``solver="fast"``), warm-started from its last working
+set. The QP is that of :mod:`wbc.formulations.acceleration`: H = blockdiag(H_vv, ε_f I) over x = [v̇; f].
 
-The QP is that of :mod:`wbc.formulations.acceleration`: x = [v̇; f], the first nv variables the accelerations, the
-rest corner forces whose cost block is diagonal (ε_f I).
-
-Structure used before the general solve (:func:`_equality_step`): H = blockdiag(H_vv, ε_f I). The bounds held
-at the previous tick's optimum (its working set: e.g. standing Talos holds a gripper joint on its acceleration
-bound every tick) are held again, and the optimum of the equality-constrained QP over the other variables
-(forces of inactive contacts are fixed by lb = ub = 0) is solved by the range-space method on the blocks (Nocedal
-& Wright 2006, *Numerical Optimization*, §16.2, eq. 16.16), F the free accelerations, X the held variables:
+First the block equality step (:func:`_equality_step`): the bounds of the previous tick's working set are held, and
+the equality-constrained QP over the free variables (F: accelerations, f: forces, X: held) is solved by the
+range-space method (Nocedal & Wright 2006, *Numerical Optimization*, §16.2, eq. 16.16):
 
     L Lᵀ = H_FF,  t = L⁻¹ (g_F + H_FX x_X),  Y = L⁻¹ A_Fᵀ,  S = Yᵀ Y + A_f D⁻¹ A_fᵀ  (D = ε_f I on the free forces),
-    S ν = −(b − A_X x_X + A_f D⁻¹ g_f + Yᵀ t),   x_F = −L⁻ᵀ (t + Y ν),   x_f = −D⁻¹ (g_f + A_fᵀ ν),
+    S ν = −(b − A_X x_X + A_f D⁻¹ g_f + Yᵀ t),   x_F = −L⁻ᵀ (t + Y ν),   x_f = −D⁻¹ (g_f + A_fᵀ ν).
 
-a ≤ 38 × 38 Cholesky for Talos instead of a 62 × 62 one. If that x satisfies every bound and row (to 1e-12) and
-every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i is ≥ 0 (σ_i = −1 at lb, +1 at ub), every KKT
-condition of the full QP holds and x is its (unique) optimum. When it fails on one bound — the most violated free
-variable, else the held bound with the most negative multiplier — that bound enters (or leaves) the working set and
-the step runs once more (a bound that alternates between ticks, as one joint's acceleration bound does while the
-robot sways, costs two equality steps; the answer is checked as before). Otherwise the Goldfarb–Idnani dual active
-set (:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`,
-warm-started from the previous tick's working set) takes over.
-
-Accuracy (Talos/G1 ``wbc sim`` and perturbed states): the returned x matches quadprog (Goldfarb–Idnani,
-dense) on the same QP to ≈ 1e-11 and DAQP's workspace solve likewise; DAQP's one-shot dual warm start (the
-``daqp`` ID default) stops ≈ 3e-7 from that optimum. Where H_vv is ill-conditioned (a base or joint direction that no
-task weighs, held by ε_a alone: condition number κ ~ 1e8) the Cholesky factor of H_FF loses as many digits, and v̇
-parts from quadprog's by ~κ · 1e-16 relative along that direction. Closed-loop trajectories of two exact solvers still part
-after a few hundred ticks: the loop amplifies a 1e-15 difference in v to 1e-6 within ~30 ticks (DAQP against
-itself), so solvers are compared tick by tick at the same state (``tests/formulations/test_idkernel.py``).
+If x meets every bound and row (to 1e-12) and every held bound's multiplier λ_i = −σ_i (H x + g + Aᵀν)_i ≥ 0 (σ_i =
+−1 at lb, +1 at ub), x is the optimum of the full QP. When one bound explains the failure it enters (or leaves) the
+working set and the step runs once more; otherwise the Goldfarb–Idnani dual active set
+(:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`) takes over. The
+answer matches quadprog's on the same QP to ≈ 1e-11 (less along directions held by ε_a alone, κ(H_vv) ~ 1e8);
+closed-loop trajectories of two exact solvers still part, so solvers are compared tick by tick
+(``tests/formulations/test_idkernel.py``).
 """
 
 from __future__ import annotations
@@ -54,10 +39,9 @@ __all__ = ["CompiledIDSolver", "EqualityStepSpace", "IDSolveBuffers", "KERNEL_IT
 
 #: the buffers of :func:`id_solve` (:func:`id_solve_buffers`)
 IDSolveBuffers = namedtuple("IDSolveBuffers", "ws_s ws_f ws_i ws_b out")
-#: workspace of the block equality step (:func:`_equality_step`; :func:`id_solve` carves it from its buffers): nv
-#: the accelerations; L (nv, nv) the factor of H_FF; Yt (≥ m, nv) = (L⁻¹ A_Fᵀ)ᵀ; S (≥ m, ≥ m) its Gram matrix's
-#: factor; t (nv,) = L⁻¹ (g_F + H_FX x_X); dinv (n,) D⁻¹ on the free forces (0 on the held ones); fnz (≥ m,) bool
-#: the equality rows with a free force; vfree (nv,) int64 the free accelerations; xv (≥ nv,), bx (≥ m,) scratch
+#: workspace of :func:`_equality_step` (module docstring's names): nv; L (nv, nv); Yt (≥ m, nv) = Yᵀ; S (≥ m, ≥ m);
+#: t (nv,); dinv (n,) D⁻¹ (0 on held forces); fnz (≥ m,) bool rows with a free force; vfree (nv,) int64 the free
+#: accelerations; xv (≥ nv,), bx (≥ m,) scratch
 EqualityStepSpace = namedtuple("EqualityStepSpace", "nv L Yt S t dinv fnz vfree xv bx")
 
 #: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
@@ -68,25 +52,19 @@ PRIMAL_TOL = 1e-11
 #: largest constraint violation (m/s², N, N·m) of the solve's final KKT check (the same solve)
 VERIFY_TOL = 1e-9
 
-#: CPU time (s) of one working-set iteration of :func:`id_solve` (:func:`~wbc.solvers.active_set.dual_active_set`
-#: refactors its working set every iteration), with its share of the call's set-up, on the slow ticks of the ID fuzz
-#: (benchmarks/README.md, "ID kernel cap from its measured iteration cost"). A tick budget becomes an iteration cap
-#: of ⌊budget / (4 · KERNEL_ITERATION_COST)⌋ (:func:`kernel_iterations`).
+#: CPU time (s) of one working-set iteration of :func:`id_solve` with its share of the set-up
+#: (benchmarks/README.md, "ID kernel cap from its measured iteration cost"; :func:`kernel_iterations`)
 KERNEL_ITERATION_COST = 1.2e-4
 
-#: iteration cap of the solver on the tick after one whose call gave up (the chain's next rung answered it): the
-#: call starts from that answer's working set, so a tick one working-set change away from the last answer stays in
-#: the compiled solver; one that needs more is as hard as the last and goes to the next rung after this short attempt.
+#: iteration cap on the tick after a call that gave up: it starts from the next rung's answer, one change away
 KERNEL_ITERATIONS_AFTER_GIVE_UP = 2
 
 _STATUS_CODES = {int(code) for code in SolverStatus}
 
 
 def kernel_iterations(budget: float) -> int:
-    """Iteration cap of :class:`CompiledIDSolver` for a tick budget of ``budget`` seconds of CPU time: a quarter of
-    the budget at :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: an unbounded budget). A count,
-    not a clock: the tick's answer stays a function of its inputs; a capped call is answered by the chain's next rung
-    on the same QP, and a failed full QP's checks and relaxed QP come after it, in the rest of the budget."""
+    """Iteration cap of :class:`CompiledIDSolver` for a tick budget of ``budget`` s of CPU time: a quarter of the
+    budget at :data:`KERNEL_ITERATION_COST` per iteration, between 4 and 100 (100: unbounded). A count, not a clock."""
     if not np.isfinite(budget):
         return 100
     return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
@@ -94,17 +72,12 @@ def kernel_iterations(budget: float) -> int:
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def _equality_step(qp, state, rstate, x, nu, es, tol):
-    """The optimum of a working set of bounds (``state``; module docstring) of the QP ``qp`` (H, g, A, b, m, C, l,
-    u, lb, ub, as :func:`~wbc.solvers.active_set.dual_active_set` takes it), written into x (n,) and its equality
-    rows' multipliers into nu (≥ m,), in the workspace ``es`` (an :data:`EqualityStepSpace`): the variables
-    with ``state`` ≠ 0 (and the forces with lb = ub) held on their bound, the equality-constrained QP solved over
-    the others. Returns (residual, i, side): residual the largest equality residual, or −1 — ``state`` untouched —
-    when that x is not the optimum of the full QP or the step does not apply: a working inequality row
-    (``rstate`` ≠ 0), a joint variable with lb = ub, H_FF or S not positive definite, a free variable or a row
-    violated by more than ``tol``, or a held bound whose multiplier λ_i = −state_i (H x + g + Aᵀν)_i is negative.
-    On a failure that one bound explains, (i, side) is the working-set change it points to: the most violated
-    free variable (side −1: held at lb, +1: at ub) when no row is checked yet, else the held bound with the most
-    negative multiplier (side 0: released); otherwise i = −1."""
+    """The equality step of the module docstring for the working set ``state`` of ``qp`` (H, g, A, b, m, C, l, u,
+    lb, ub) in the workspace ``es``, x (n,) and ν (≥ m,) written into x and nu (forces with lb = ub held too).
+    Returns (residual, i, side): the largest equality residual, or −1 when x is not the optimum or the step does not
+    apply (a working row, a joint with lb = ub, H_FF or S not positive definite, a violation above ``tol``, a
+    negative held multiplier); then (i, side) the one change it points to — the most violated free variable (side
+    ∓1: held at lb/ub), else the held bound with the most negative multiplier (side 0: released) — or i = −1."""
     H, g, A, b, m, C, l, u, lb, ub = qp
     nv, L, Yt, S, t, dinv, fnz, vfree, xv, bx = es
     n = H.shape[0]
@@ -242,16 +215,10 @@ def _equality_step(qp, state, rstate, x, nu, es, tol):
 
 
 def id_solve_buffers(n: int, nv: int, p: int, me: int) -> tuple[np.ndarray, ...]:
-    """The working set, workspace and outputs of :func:`id_solve` for n variables, nv accelerations, p inequality
-    rows and up to ``me`` equality rows, as five zeroed flat buffers (:func:`carve_solve`: a handful of arguments to
-    unbox per call instead of thirty):
-
-    * ``ws_s`` int8 (n + p,): the working set, ``state`` (n,) then ``rstate`` (p,);
-    * ``ws_f`` float64: the float workspace of the equality step and the dual active set (w = me + p working rows),
-      then nu (me,), mu (p,);
-    * ``ws_i`` int64 and ``ws_b`` bool (w,): the integer and boolean workspace;
-    * ``out`` float64: residual (1,), the largest constraint violation of x, then x (n,).
-    """
+    """The five zeroed flat buffers of :func:`id_solve` (:data:`IDSolveBuffers`, carved by :func:`carve_solve`) for
+    n variables, nv accelerations, p inequality rows and up to ``me`` equality rows: ``ws_s`` int8 (n + p,) the
+    working set (state, rstate); ``ws_f`` float64, ``ws_i`` int64, ``ws_b`` bool (me + p,) workspace (ν, μ at the
+    end of ws_f); ``out`` float64 (1 + n,) the residual, then x."""
     w = me + p
     nf = w * nv + w * w + nv * nv + nv + 4 * w + 7 * n + p + 3 + me + p
     return (np.zeros(n + p, np.int8), np.zeros(nf), np.zeros(w + nv + max(n - nv, 1) + 3, np.int64),
@@ -260,10 +227,7 @@ def id_solve_buffers(n: int, nv: int, p: int, me: int) -> tuple[np.ndarray, ...]
 
 @nb.njit(cache=True, nogil=True, inline="always")
 def carve_solve(ws_s, wf, wi, wb, out, n, nv, p):
-    """The arrays of :func:`id_solve_buffers` (C order, disjoint views): (state, rstate, residual, x, nu, mu, the
-    workspace of the block equality step and of :func:`~wbc.solvers.active_set.dual_active_set` on a
-    :class:`~wbc.solvers.active_set.BlockSpace`: rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb,
-    lam_b, lam_r, ra, rc, dx, drho, out)."""
+    """Disjoint views of :func:`id_solve_buffers`: state, rstate, residual, x, nu, mu and the workspace tuple."""
     w = wb.shape[0]
     state = ws_s[0:n]
     rstate = ws_s[n:n + p]
@@ -296,16 +260,10 @@ def carve_solve(ws_s, wf, wi, wb, out, n, nv, p):
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def id_solve(qp, nv, max_iter, buffers):
-    """The exact optimum of the ID QP ``qp`` (H, g, A, b, C, l, u, lb, ub; module docstring) into the ``x`` of
-    ``buffers`` (:data:`IDSolveBuffers`, the working set read as the warm start and written): the block equality
-    step (:func:`_equality_step`), once more after one working-set change when ``max_iter`` ≥ 2, else the dual active
-    set (:func:`~wbc.solvers.active_set.dual_active_set` on a :class:`~wbc.solvers.active_set.BlockSpace`) of at most
-    ``max_iter`` iterations. ``residual`` ← the largest constraint violation of x.
-
-    Returns:
-        iterations (1: the equality step; 2: the step after one working-set change; else the dual active set's
-        steps), or a negative :class:`~wbc.solvers.status.SolverStatus` code.
-    """
+    """The exact optimum of the ID QP ``qp`` (H, g, A, b, C, l, u, lb, ub) into ``buffers`` (:data:`IDSolveBuffers`:
+    x, the residual, the working set read as warm start and written), by the module docstring's steps, the dual
+    active set capped at ``max_iter`` iterations (a second equality step only when ``max_iter`` ≥ 2). Returns the
+    iterations (1, 2: equality steps) or a negative :class:`~wbc.solvers.status.SolverStatus` code."""
     H, g, A, b, C, l, u, lb, ub = qp
     ws_s, ws_f, ws_i, ws_b, out = buffers
     m = A.shape[0]
@@ -317,8 +275,6 @@ def id_solve(qp, nv, max_iter, buffers):
     res, i, side = _equality_step(qpm, state, rstate, x, nu, step, 1e-12)
     it = 1
     if res < 0.0 and i >= 0 and max_iter >= 2:
-        # one working-set change (a bound entering or leaving), the step again: a bound that alternates between
-        # ticks costs a second equality step instead of the general solve
         held = state[i]
         state[i] = side
         res = _equality_step(qpm, state, rstate, x, nu, step, 1e-12)[0]
@@ -339,18 +295,16 @@ def id_solve(qp, nv, max_iter, buffers):
 
 
 class CompiledIDSolver:
-    """:func:`id_solve` behind the solver protocol: ``solve(QPData) → QPSolution`` (module docstring).
+    """:func:`id_solve` behind the solver protocol: ``solve(QPData) → QPSolution``.
 
     Args:
         n, nv, p: variables, accelerations (the dense block), inequality rows. me: the most equality rows a QP has.
 
     Attributes:
         state, rstate: (n,), (p,) the working set (bounds, inequality rows: −1 lower, +1 upper, 0 free).
-        max_iterations: the iteration cap (:func:`kernel_iterations` of the tick budget); after a call that gave up,
-            the next is capped at :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP`.
-        tolerance: the largest constraint violation of an answer (set by the chain: its backend's).
-        solves, fallbacks, rejected: calls that answered, that did not (the chain's next rung answered), and whose
-            answer failed the caller's check.
+        max_iterations: the iteration cap (:func:`kernel_iterations`; :data:`KERNEL_ITERATIONS_AFTER_GIVE_UP` after
+            a call that gave up). tolerance: the largest constraint violation of an answer (the chain's backend's).
+        solves, fallbacks: calls that answered, and that did not (the chain's next rung answered).
     """
 
     name = "kernel"
@@ -364,7 +318,6 @@ class CompiledIDSolver:
         self.tolerance = 1e-6
         self.solves = 0
         self.fallbacks = 0
-        self.rejected = 0
         self.gave_up = False
         self.cap = self.max_iterations  # the last call's iteration cap
         self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
@@ -375,11 +328,8 @@ class CompiledIDSolver:
         Raises:
             SolverError: the call did not end in a KKT point within :attr:`tolerance` (the message names its status).
         """
-        # after a give-up the call starts from the next rung's working set, one answer away: a short attempt
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
-        # the formulation's buffers: the per-call type resolution skipped (with kernel type checks on, the dispatcher
-        # resolves them on every call, a cheaper check than the specialised function's)
         if not CHECK_TYPES and all(a.flags.c_contiguous for a in qp):
             if self._entry is None:
                 self._entry = specialise(id_solve, qp, self.nv, self.cap, self.buffers)
@@ -410,9 +360,9 @@ class CompiledIDSolver:
         return f"kernel status {SolverStatus(status).name if status in _STATUS_CODES else status}"
 
     def warm(self, x: np.ndarray, lam, qp: QPData) -> None:
-        """Warm start of the next call from another solver's answer ``x`` (n,) to ``qp``: its multipliers ``lam``
-        (bounds, equality rows, inequality rows; > 0 at an upper bound, < 0 at a lower one) when given with the QP's
-        size, else the bounds that ``x`` meets (to 1e-9 relative)."""
+        """Warm start of the next call from another solver's answer ``x`` (n,) to ``qp``: the signs of its
+        multipliers ``lam`` (bounds, equality rows, inequality rows; > 0 at an upper bound) when of the QP's size,
+        else the bounds that ``x`` meets (to 1e-9 relative)."""
         n, p, m = self.state.shape[0], self.rstate.shape[0], qp.A.shape[0]
         if lam is not None and len(lam) == n + m + p:
             lam = np.asarray(lam)

@@ -347,7 +347,6 @@ class FallbackChain:
             if not why:
                 compiled.solves += 1
                 return sol
-            compiled.rejected += 1
         except SolverError as exc:
             why = str(exc)
         self.compiled_reason = why
