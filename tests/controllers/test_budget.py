@@ -42,7 +42,6 @@ def test_may_start_counts_the_largest_resolve_ahead():
     assert b.may_start("stage")  # 8.5 ≤ 1.75 × 8 = 14
     b.work.add(6)  # 12 + 2.5 = 14.5 > 14
     assert not b.may_start("stage")
-    assert b.may_start("timed")  # bounded by the clock guard only, which is off
 
 
 def test_may_start_with_a_cost_asks_the_clock_guard_only_when_it_is_on():
@@ -50,13 +49,13 @@ def test_may_start_with_a_cost_asks_the_clock_guard_only_when_it_is_on():
     assert b.may_start("retry", cost=10.0)  # no clock guard: a cost never stops a stage
     b.clock_guard = True
     b.start(2e-3, 2.5e-4, clock_weight=1.4)
-    assert not b.may_start("timed", cost=10.0)  # 10 s > 1.5 × 2 ms
+    assert not b.may_start("stage", cost=10.0)  # 10 s > 1.5 × 2 ms
     assert not b.fits(0.0, deadline=-1.0)
     assert b.fits(-10.0)  # any CPU time so far minus 10 s is within 1.5 × 2 ms
 
 
 def test_an_unknown_stage_is_a_typed_error_naming_the_valid_ones():
-    with pytest.raises(InvalidInputError, match="retry, stage, timed"):
+    with pytest.raises(InvalidInputError, match="retry, stage"):
         _budget().may_start("level")
 
 
@@ -215,7 +214,7 @@ def test_the_first_solve_of_a_clock_guarded_tick_stops_at_its_iteration_cap(robo
     for cost, route in ((2e-3 / 3.5, "general"), (1e-12, "compiled")):
         robot, ctrl = _posture_controller(robots, clock_guard=True)
         ctrl.tick_budget.work.timer = FakeClock()  # CPU time 0: the cost sets the cap
-        ctrl.tick_budget.iteration_cost = cost  # 2 ms / 3.5: one budget (first_deadline 1) holds 3 iterations
+        ctrl.tick_budget.iteration_cost = cost  # 2 ms / 3.5: one budget holds 3 iterations
         res = ctrl.solve(Configuration(robot), 0.002)
         # capped at 3, the compiled solve gives up and the general path answers; at a negligible cost it runs to
         # its own cap (100) and answers as without the guard
