@@ -474,5 +474,3 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.last_result = result
         self.tick_budget.finish(dt)
         return result
-
-    # -- failure handling -------------------------------------------------------------------------------------
