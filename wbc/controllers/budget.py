@@ -9,7 +9,6 @@ in this tick) starts only when it ends by ``stage_deadline`` budgets (:meth:`Tic
 iteration cap is the CPU time left until one budget over the CPU time per iteration of the recent first solves
 (:meth:`TickBudget.iteration_cap`). The controller owns the numbers (its class constants, read at each
 :meth:`TickBudget.start`); the decisions are these methods'. The same object serves a controller of either level.
-:meth:`TickBudget.finish` counts the ticks whose CPU time exceeded the control period (``deadline_misses``).
 """
 
 from __future__ import annotations
@@ -43,8 +42,6 @@ class TickBudget:
             ``safe_fresh``: it was timed in this tick; ``safe_stage_cost``: the last 'constraints_only' stage.
         level_mark, level_count: CPU time and counted solves of the tick at the last level boundary of a cascade.
         iteration_cost: CPU time (s) per iteration of the first solve (clock guard; :meth:`note_first_solve`).
-        deadline_misses: ticks since construction whose CPU time exceeded their control period (:meth:`finish`).
-        ticks: ticks finished since construction.
 
     Args:
         timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`, the calling thread's), read through
@@ -60,15 +57,11 @@ class TickBudget:
         self.safe_fresh = False
         self.safe_stage_cost = self.level_mark = self.level_count = self.resolve_work = self.level_work = 0.0
         self.iteration_cost = 0.0
-        self.deadline_misses = self.ticks = 0
-        self._t0 = 0.0
 
     def start(self, seconds: float, solve_cost: float, clock_weight: float) -> None:
         """Start a tick of ``seconds`` of budget: cap ⌊seconds / solve_cost⌋ counted solves (``math.inf`` when
         ``seconds`` is), with the clock guard seconds / (clock_weight × cap) of CPU time counted as one solve; the
-        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh). Reads the clock: the
-        tick's start for :meth:`finish`."""
-        self._t0 = self.work.timer()
+        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh)."""
         self.seconds = seconds
         cap = math.floor(seconds / solve_cost) if math.isfinite(seconds) else math.inf
         clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
@@ -152,11 +145,3 @@ class TickBudget:
         """The tick's first solve took ``iterations`` (≥ 0) in ``seconds`` of CPU time: ``iteration_cost`` becomes
         the larger of COST_DECAY × itself and seconds / max(iterations, 1) (a slow sample bounds the next ticks)."""
         self.iteration_cost = max(COST_DECAY * self.iteration_cost, seconds / max(iterations, 1))
-
-    def finish(self, period: float) -> bool:
-        """End the tick: True, and one more ``deadline_misses``, when its CPU time since :meth:`start` exceeded
-        ``period`` (s, the control period)."""
-        self.ticks += 1
-        late = self.work.timer() - self._t0 > period
-        self.deadline_misses += late
-        return late

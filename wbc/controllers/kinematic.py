@@ -386,19 +386,16 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                 and self._soft_tasks == self.tasks and plan.soft_tasks is self._soft_tasks
                                 and plan.backend is self.backend and not self._level_order):
             plan = self._fused_plan(config, dt)
-        if plan is not None:
-            if plan.rescue is not None:
-                plan.rescue.work = self._work
-            try:
-                result = self._fused_tick(plan, config, dt, t0)
-            except InvalidInputError:
-                raise
-            except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
-                result = None
-            if result is not None:
-                self.tick_budget.finish(dt)
-                return result
-        return None
+        if plan is None:
+            return None
+        if plan.rescue is not None:
+            plan.rescue.work = self._work
+        try:
+            return self._fused_tick(plan, config, dt, t0)
+        except InvalidInputError:
+            raise
+        except Exception:  # noqa: BLE001 — the general path meets it again and handles it
+            return None
 
     def _start_general(self) -> bool:
         """Set up the general path of the tick (backends' give-up counting, the strict levels' weighted form and
@@ -472,5 +469,4 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
         result.consecutive_failures = self.consecutive_failures
         self.last_result = result
-        self.tick_budget.finish(dt)
         return result
