@@ -1,32 +1,14 @@
-"""The tick budget of a controller: one object that owns the tick's counted work, its clock guard and the stage
-factors, and answers whether a stage may start (:class:`TickBudget`).
+"""The tick budget of a controller (:class:`TickBudget`): one object that owns the tick's counted work, its clock
+guard and the stage factors, and answers whether a stage may start.
 
 A tick of budget B seconds (CPU time; default the tick's dt) may do cap = ⌊B / solve_cost⌋ QP solves, counted by
 the :class:`wbc.solvers.base.TickWork` it shares with the controller's backends (a count, not a clock: the same
-inputs give the same answers). With the clock guard on, one budget of the tick's CPU time also counts as
-clock_weight × cap solves, so every limit on the count also holds on the clock. The stages of a tick ask
-:meth:`TickBudget.may_start` before they start:
-
-* ``"retry"`` — an optional stage of a failed tick (confirmation, relaxation, diagnosis): the count is below one
-  cap, also after one more re-solve of the tick's QP at the counted work of its largest re-solve so far;
-* ``"stage"`` — a further stage of a solved tick (a strict level, a contact correction, a trust region): it ends
-  within ``stage_factor`` caps at the work of the largest re-solve so far;
-* ``"timed"`` — a stage bounded by the clock guard only.
-
-With a ``cost`` (CPU time in s of that stage as timed in this tick), the stage must also end by ``deadline``
-(default ``stage_deadline``) budgets of CPU time when the clock guard is on (:meth:`TickBudget.fits`). The
-controller owns the numbers (its class constants, read at each :meth:`TickBudget.start`); the decisions are these
-methods'. The same object serves a controller of either level: it needs a :class:`~wbc.solvers.base.TickWork`
-and the numbers, nothing of the formulation.
-
-The first solve of a tick is bounded in time too (clock guard): :meth:`TickBudget.iteration_cap` gives the compiled
-solver's iteration cap as the CPU time left until ``first_deadline`` budgets divided by the CPU time per iteration
-(``iteration_cost``: the largest per-iteration time of the recent first solves, :meth:`TickBudget.note_first_solve`,
-decaying by ``COST_DECAY`` per tick, starting from the controller's measured constant), clamped to [1, the solver's
-own cap]. Without the clock guard the cap is the solver's own (a count: reproducible).
-
-Deadline misses: :meth:`TickBudget.finish` counts the ticks whose CPU time (from :meth:`TickBudget.start`)
-exceeded the control period (``deadline_misses``, ``ticks``; read by summaries and the ROS 2 node).
+inputs give the same answers). With the clock guard on, one budget of CPU time also counts as clock_weight × cap
+solves, so every limit on the count also holds on the clock, and a stage given its ``cost`` (its CPU time as timed
+in this tick) starts only when it ends by ``stage_deadline`` budgets (:meth:`TickBudget.fits`); the first solve's
+iteration cap is the CPU time left until one budget over the CPU time per iteration of the recent first solves
+(:meth:`TickBudget.iteration_cap`). The controller owns the numbers (its class constants, read at each
+:meth:`TickBudget.start`); the decisions are these methods'. The same object serves a controller of either level.
 """
 
 from __future__ import annotations
@@ -38,10 +20,9 @@ from wbc.solvers import TickWork
 
 __all__ = ["STAGES", "TickBudget", "COST_DECAY"]
 
-#: the stages :meth:`TickBudget.may_start` answers for (module docstring)
-STAGES = ("retry", "stage", "timed")
+#: the stages :meth:`TickBudget.may_start` answers for
+STAGES = ("retry", "stage")
 #: per tick, the CPU time per iteration of the first solve (``TickBudget.iteration_cost``) decays by this factor
-#: towards the newer samples (a slow sample bounds the next ticks' caps, not all later ones)
 COST_DECAY = 0.9
 
 
@@ -60,11 +41,7 @@ class TickBudget:
         safe_cost: CPU time (s) of the longest solve of the safe command in this tick, else the last tick's;
             ``safe_fresh``: it was timed in this tick; ``safe_stage_cost``: the last 'constraints_only' stage.
         level_mark, level_count: CPU time and counted solves of the tick at the last level boundary of a cascade.
-        first_deadline: with the clock guard, the tick's first solve ends by first_deadline budgets of CPU time
-            (:meth:`iteration_cap`).
-        iteration_cost: CPU time (s) per iteration of the first solve (clock guard; module docstring).
-        deadline_misses: ticks since construction whose CPU time exceeded their control period (:meth:`finish`).
-        ticks: ticks finished since construction.
+        iteration_cost: CPU time (s) per iteration of the first solve (clock guard; :meth:`note_first_solve`).
 
     Args:
         timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`, the calling thread's), read through
@@ -75,26 +52,16 @@ class TickBudget:
         self.work = TickWork(timer=timer)
         self.clock_guard = False
         self.seconds = math.nan
-        self.stage_factor = 1.0
-        self.stage_deadline = 1.0
+        self.stage_factor = self.stage_deadline = 1.0
         self.resolve_cost = self.level_cost = self.check_cost = self.safe_cost = 0.0
         self.safe_fresh = False
-        self.safe_stage_cost = 0.0
-        self.level_mark = 0.0
-        self.level_count = 0.0
-        self.resolve_work = self.level_work = 0.0
-        self.first_deadline = 1.0
+        self.safe_stage_cost = self.level_mark = self.level_count = self.resolve_work = self.level_work = 0.0
         self.iteration_cost = 0.0
-        self.deadline_misses = 0
-        self.ticks = 0
-        self._t0 = 0.0
 
     def start(self, seconds: float, solve_cost: float, clock_weight: float) -> None:
         """Start a tick of ``seconds`` of budget: cap ⌊seconds / solve_cost⌋ counted solves (``math.inf`` when
         ``seconds`` is), with the clock guard seconds / (clock_weight × cap) of CPU time counted as one solve; the
-        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh). Reads the clock: the
-        tick's start for :meth:`finish`."""
-        self._t0 = self.work.timer()
+        tick's stage costs start at 0 (the safe command's from the last tick stays, not fresh)."""
         self.seconds = seconds
         cap = math.floor(seconds / solve_cost) if math.isfinite(seconds) else math.inf
         clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
@@ -104,7 +71,10 @@ class TickBudget:
         self.safe_fresh = False
 
     def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None) -> bool:
-        """May a stage of kind ``stage`` (one of :data:`STAGES`) start now; with ``cost`` (s of CPU time), also
+        """May a stage start now: ``"retry"``, an optional stage of a failed tick (confirmation, relaxation,
+        diagnosis), when the count is below one cap, also after one more re-solve at the counted work of the tick's
+        largest re-solve so far; ``"stage"``, a further stage of a solved tick (a strict level, a contact correction,
+        a trust region), when it ends within ``stage_factor`` caps at that work; with ``cost`` (s of CPU time), also
         :meth:`fits` (cost, deadline).
 
         Raises:
@@ -115,8 +85,6 @@ class TickBudget:
             late = work.spent() or work.spent(1.0, self.resolve_work)
         elif stage == "stage":
             late = work.spent(self.stage_factor, self.resolve_work)
-        elif stage == "timed":
-            late = False
         else:
             raise InvalidInputError(f"stage must be one of {', '.join(STAGES)}, got {stage!r}")
         return not late and (cost is None or self.fits(cost, deadline))
@@ -157,32 +125,23 @@ class TickBudget:
         return not self.work.spent(self.stage_factor, runs * levels * (1.0 + level_work))
 
     def cascade_fits(self, levels: int, share: float) -> bool:
-        """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times
-        levels + 1 fit in ``share`` caps, and (clock guard) its CPU time times 2 (levels + 1) in one budget."""
-        n = levels + 1
-        work = self.work
+        """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times levels + 1
+        fit in ``share`` caps, and (clock guard) its CPU time times 2 (levels + 1) in one budget."""
+        n, work = levels + 1, self.work
         if n * work.solves > share * work.cap:
             return False
         return not self.clock_guard or 2 * n * work.seconds() <= self.seconds
 
     def iteration_cap(self, max_iter: int) -> int:
-        """The iteration cap of the tick's first solve (module docstring): ``max_iter`` without the clock guard;
-        with it ⌊(first_deadline × seconds − CPU time so far) / iteration_cost⌋ clamped to [1, max_iter]
-        (``max_iter`` while no cost is known)."""
+        """The iteration cap of the tick's first solve: ``max_iter`` without the clock guard (a count: reproducible);
+        with it ⌊(seconds − CPU time so far) / iteration_cost⌋ clamped to [1, max_iter] (``max_iter`` while no cost
+        is known)."""
         if not self.clock_guard or not self.iteration_cost > 0.0 or not math.isfinite(self.seconds):
             return max_iter
-        left = self.first_deadline * self.seconds - self.work.seconds()
+        left = self.seconds - self.work.seconds()
         return int(min(max_iter, max(1.0, left // self.iteration_cost)))
 
     def note_first_solve(self, iterations: int, seconds: float) -> None:
         """The tick's first solve took ``iterations`` (≥ 0) in ``seconds`` of CPU time: ``iteration_cost`` becomes
-        the larger of COST_DECAY × itself and seconds / max(iterations, 1)."""
+        the larger of COST_DECAY × itself and seconds / max(iterations, 1) (a slow sample bounds the next ticks)."""
         self.iteration_cost = max(COST_DECAY * self.iteration_cost, seconds / max(iterations, 1))
-
-    def finish(self, period: float) -> bool:
-        """End the tick: True, and one more ``deadline_misses``, when its CPU time since :meth:`start` exceeded
-        ``period`` (s, the control period)."""
-        self.ticks += 1
-        late = self.work.timer() - self._t0 > period
-        self.deadline_misses += late
-        return late

@@ -46,10 +46,8 @@ class DriftMeter:
         (nv,) from ``config``: e⁺ = log6(placementᵀ · frame at q⁺); target = (1 − min(K, 1/dt) dt) e at ``config``
         (or ``expected[i]``, the contact rows' own targets); the distance that of the translations of exp(e⁺) and
         exp(target); a frame's drift the larger of its distance and ``lever`` (m/rad) times the angle between the
-        two rotations (0: the distance alone).
-
-        ``remember``: keep the answer and return it again for the same v, q (the same arrays) and dt until
-        :meth:`forget` (one control tick asks the drift of one command several times)."""
+        two rotations (0: the distance alone). ``remember``: the answer returned again for the same v, q (the same
+        arrays) and dt until :meth:`forget`."""
         if not contacts:
             return 0.0, [], 0.0
         memo = self._memo
@@ -107,8 +105,7 @@ class DriftMeter:
 
 class ContactRange:
     """The range of the contact rows J_c (rows of the contacts × nv): their thin SVD, kept while J_c is unchanged
-    (a failed tick asks it of the same rows several times: its retry, contact corrections, trust regions and safe
-    command)."""
+    (a failed tick asks it several times)."""
 
     def __init__(self):
         self._kept: tuple | None = None  # (J_c, U, S) of the last svd()
@@ -132,8 +129,7 @@ class ContactRange:
 
 
 class ContactHold:
-    """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring): drift
-    measurement (:meth:`sole_drift`), correction (``_correct_contacts``) and trust regions (``_hold_contacts``)."""
+    """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring)."""
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
         """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): by forward kinematics at
@@ -146,40 +142,27 @@ class ContactHold:
         return self._contact_drifts(config, v, dt)[2]
 
     def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray], float]:
-        """:meth:`DriftMeter.measure` of this tick's contacts (remembered within one solve(), against the targets
-        assembled at this config)."""
+        """:meth:`DriftMeter.measure` of this tick's contacts (remembered within a tick, against its targets)."""
         expected = self._contact_expected if self._in_solve else None
         return self.drift_meter.measure(config, v, dt, self._contacts, self._drift_lever(), expected,
                                         remember=self._in_solve)
 
     def _drift_lever(self) -> float:
-        """m per rad: a contact frame's drift is the larger of its distance and this times its angle, so that an
-        angle of sole_rotation_tolerance counts as a distance of sole_drift_tolerance (0, the distance alone, when
-        either is None)."""
+        """sole_drift_tolerance / sole_rotation_tolerance (m per rad; 0, the distance alone, when either is None)."""
         tol, turn = self.sole_drift_tolerance, self.sole_rotation_tolerance
         return 0.0 if tol is None or turn is None else tol / turn
 
     def _consistent_contact_rhs(self) -> bool:
-        """Drift corrections of dependent contact rows made consistent (least squares); True when b changed.
-
-        When the contact rows J_c are rank deficient (two flat 5-DoF legs in gimbal lock both fix the base yaw),
-        their drift corrections −K e may disagree in the dependent directions (the feet's yaw errors differ after
-        a finite step), which no v can meet. After such a failed solve, b_c is replaced by its projection
-        U_r U_rᵀ b_c onto the range of J_c (truncated SVD, singular values > ``rank_rtol`` · the largest): the
-        corrections are averaged where the contacts are dependent and unchanged where they are not."""
+        """After a failed solve, the contact rows' right-hand sides b_c replaced by U_r U_rᵀ b_c, their projection onto
+        the range of J_c (:meth:`ContactRange.basis`): rank-deficient contact rows (two flat 5-DoF legs both fixing
+        the base yaw) whose drift corrections disagree in a dependent direction, which no v meets, are averaged
+        there; True when b changed."""
         rows = self._contact_rows
         Ur = self.contact_range.basis(self._A[rows], self.rank_rtol)
         if Ur.shape[1] == rows.size:
             return False
         projected = Ur @ (Ur.T @ self._b[rows])
         changed = not np.array_equal(projected, self._b[rows])
-        change = np.abs(projected - self._b[rows])
-        self._projected_contacts = []  # (contact name, largest change of its rows' rhs) for the report
-        for c, r0, r1 in self._eq_blocks:
-            if isinstance(c, ContactConstraint):
-                sel = (rows >= r0) & (rows < r1)
-                if sel.any() and change[sel].max() > 1e-9:
-                    self._projected_contacts.append((c.name, float(change[sel].max())))
         self._b[rows] = projected
         self._eq_rows = None  # recompute the independent rows for the retry
         return changed
@@ -192,33 +175,43 @@ class ContactHold:
         basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
         return None if basis.shape[1] == rows.size else basis
 
+    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
+                      bounded: bool = False) -> TickResult:
+        """v's second-order contact correction (when on) then its trust region (:meth:`_hold_contacts`)."""
+        if self.contact_correction > 0 and self._contacts:
+            v = self._correct_contacts(config, dt, v, solve, bounded)
+        return self._hold_contacts(config, dt, v, relaxed, solve, bounded)
+
+    def _may_resolve(self, solve, bounded: bool, stage: str) -> bool:
+        """May a re-solve by ``solve`` start: a safe command's (``bounded``) as a 'retry', else as a 'stage' (its cut
+        recorded as ``stage`` when not), at the CPU time of the longest such re-solve so far."""
+        budget = self.tick_budget
+        cost = budget.safe_estimate() if solve == self._solve_constraints_only else budget.resolve_cost
+        if budget.may_start("retry" if bounded else "stage", cost):
+            return True
+        if not bounded:
+            self._cut.append(stage)
+        return False
+
     def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
                           bounded: bool = False) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
         re-solves the problem in the buffers (default: the tick's QP)."""
         solve = solve or self._solve_assembled
-        budget = self.tick_budget
-        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
         self.contact_corrections = 0
         worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
             return v
-        blocks = {id(c): (r0, r1) for c, r0, r1 in self._eq_blocks}
-        rows = [blocks[id(c)] for c in self._contacts]
+        rows = [(r0, r1) for _, r0, r1 in self._contact_blocks]  # in the order of _contacts (of drifts)
         range_basis = self._contact_range_basis()
         b0 = self._b.copy()
         try:
             for k in range(3):
-                # stops at the tick budget (the safe command's) or STAGE_FACTOR times it; the best command is kept
-                if not budget.may_start("retry" if bounded else "stage", cost()):
-                    if not bounded:
-                        self._cut.append(f"contact correction after {k} of 3 re-solves")
-                    break
+                if not self._may_resolve(solve, bounded, f"contact correction after {k} of 3 re-solves"):
+                    break  # the best command is kept
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
-                if range_basis is not None:
-                    # dependent contact rows (two flat feet both fixing the base yaw): the corrected right-hand sides
-                    # would contradict each other; projected onto the range of J_c instead (least squares)
+                if range_basis is not None:  # dependent contact rows: as _consistent_contact_rhs
                     cr = self._contact_rows
                     self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
                 try:
@@ -235,10 +228,7 @@ class ContactHold:
                     break
                 tol = self.sole_drift_tolerance
                 if tol is not None and worst * ratio ** (2 - k) > tol:
-                    # contracting too slowly to end within sole_drift_tolerance in the re-solves left (a large
-                    # step, far outside the linear range of J_c): the trust region's smaller steps take over, with
-                    # the budget these re-solves would spend (a strict cascade's re-solve costs one solve per level)
-                    break
+                    break  # too slow to reach tol in the re-solves left: the trust region's smaller steps take over
         finally:
             np.copyto(self._b, b0)
         return v
@@ -246,15 +236,10 @@ class ContactHold:
     def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
                        bounded: bool = False) -> TickResult:
         """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
-        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP).
-
-        When the contact rows are rank deficient their right-hand sides are first made consistent (projected onto
-        the range of J_c, as after a failed solve): nearly dependent rows whose corrections disagree otherwise ask a
-        large v in the nearly singular direction, and their bands leave no solution inside a smaller region. Each
-        region's solution gets the second-order correction (``contact_correction``) before its drift is measured."""
+        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP). Rank-deficient contact rows
+        get consistent right-hand sides first (as :meth:`_consistent_contact_rhs`: else their disagreeing corrections
+        ask a large v in the nearly singular direction); each region's solution is corrected before it is measured."""
         solve = solve or self._solve_assembled
-        budget = self.tick_budget
-        cost = budget.safe_estimate if solve == self._solve_constraints_only else lambda: budget.resolve_cost
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -269,11 +254,8 @@ class ContactHold:
                 cr = self._contact_rows
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
             for k in range(n_radii):
-                # stops at the tick budget (the safe command's) or STAGE_FACTOR times it; the least drifting is kept
-                if not budget.may_start("retry" if bounded else "stage", cost()):
-                    if not bounded:
-                        self._cut.append(f"trust region after {k} of at most {n_radii} radii")
-                    break
+                if not self._may_resolve(solve, bounded, f"trust region after {k} of at most {n_radii} radii"):
+                    break  # the least drifting command is kept
                 if basis is not None and k == 0:
                     radius = math.inf  # first the whole box, with consistent contact rows
                 else:

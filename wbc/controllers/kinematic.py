@@ -58,59 +58,42 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
-        contact_correction: second-order contact correction threshold (m; default 1e-6, 0 = off). The contact
-            rows J v = −K e hold the sole to first order in v dt only; when the distance a contact frame at
-            q⁺ = pin.integrate(q, v dt) is from where its row sends it exceeds this threshold, the contact rows'
-            right-hand sides are corrected by the measured drift, b ← b − (e⁺ − (1 − K dt) e)/dt, and the tick
-            is solved again (a Newton step on the exact contact condition e⁺(v) = (1 − K dt) e; at most 3
-            iterations). This keeps every objective and priority of the QP: only the contact target moves.
-        sole_drift_tolerance: the largest contact-frame drift per tick (m, default 5e-5) on an ok tick, or None
-            (drift measured in ``TickResult.sole_drift``, not enforced). A tick whose (corrected) solution still
-            drifts more is solved again inside a trust region |v_i| ≤ ρ, up to 8 regions, each ρ the last one's
-            times clip(0.8 · tolerance / its drift, 1/16, 1/2) starting from max|v| (the drift taken linear in ρ:
-            one region where halving needed four); if none drifts less, the tick is not ok.
-        sole_rotation_tolerance: the largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of
-            1/6 m, sole_drift_tolerance's 5e-5 m) a contact frame may turn per tick away from where its row sends
-            it on an ok tick, or None (the distance alone); enforced with sole_drift_tolerance, as part of the same
-            drift (``TickResult.sole_drift``: the angle times sole_drift_tolerance / sole_rotation_tolerance when
-            that is larger than the distance), by the same trust region. Both soles of a stance turned alike on an
-            ok tick leave a common error that dependent contact rows with unequal gains K correct in contradicting
-            ways on the next tick. The second-order correction (``contact_correction``) is started and judged on the
-            distance alone. Raises InvalidInputError unless None or finite and > 0.
-        budget: CPU time (s) a tick may use before its optional stages are skipped, or None (default): the tick's
-            dt; counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (never read from a clock: deterministic);
-            ``math.inf``: no budget (every failure-handling stage runs: offline analysis and tests). What each stage
-            does when it is spent (the '+budget' path, the weighted form of strict levels, the safe command):
+        contact_correction: drift (m) of a contact frame over the tick above which the contact rows' right-hand
+            sides are corrected by the measured drift and the tick solved again (:mod:`wbc.controllers.contact_hold`;
+            ≤ 3 Newton steps on e⁺(v) = (1 − K dt) e: only the contact targets move); default 1e-6, 0 = off.
+        sole_drift_tolerance: largest contact-frame drift per tick (m, default 5e-5) of an ok tick, enforced by up to
+            8 trust regions |v_i| ≤ ρ (each ρ the last one's times clip(0.8 · tolerance / its drift, 1/16, 1/2),
+            starting from max|v|), else the tick is not ok; None: measured (``TickResult.sole_drift``), not enforced.
+        sole_rotation_tolerance: largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of 1/6 m,
+            5e-5 m) a contact frame may turn per tick away from where its row sends it on an ok tick, or None (the
+            distance alone): the drift is the larger of the distance and the angle times sole_drift_tolerance /
+            sole_rotation_tolerance. The contact correction is started and judged on the distance alone.
+        budget: CPU time (s) of a tick before its optional stages are skipped, or None (default): the tick's dt;
+            counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (never read from a clock: deterministic);
+            ``math.inf``: no budget (every failure-handling stage runs). What each stage does when it is spent:
             ``docs/kinematic-controller.md``, "tick budget".
-        clock_guard: also count the tick's CPU time (``time.thread_time``) as work, ``CLOCK_WEIGHT`` ×
-            ⌊budget / ``SOLVE_COST``⌋ solves per budget of CPU time, and start no stage after the first solve unless
-            it ends by ``STAGE_DEADLINE`` budgets (:class:`wbc.controllers.budget.TickBudget`; the first solve's
-            iteration cap, :meth:`~wbc.controllers.budget.TickBudget.iteration_cap`). Default False: the answer is a
-            function of the tick's inputs (reproducible simulations, tests). True (on in ``wbc ros2 node``,
-            ``--live``, ``--ros2``): the tick time is bounded, and a tick that reaches a limit by its clock has an
-            answer that depends on the machine's speed and load (``docs/kinematic-controller.md``). Settable as an
-            attribute.
+        clock_guard: also count the tick's CPU time as work (:class:`wbc.controllers.budget.TickBudget`): the tick
+            time is bounded, and a tick that reaches a limit by its clock has an answer that depends on the
+            machine's speed and load. Default False (the answer is a function of the tick's inputs); on in
+            ``wbc ros2 node``, ``--live``, ``--ros2``. Settable as an attribute.
 
     Raises:
         UnknownSolverError: unknown backend name.
-        InvalidInputError: damping ≤ 0, budget not None nor finite and > 0, or an object that is not a
-            Task/Constraint.
+        InvalidInputError: damping ≤ 0, budget, sole_drift_tolerance or sole_rotation_tolerance not None nor finite
+            and > 0, contact_correction not finite and ≥ 0, or an object that is not a Task/Constraint.
     """
 
     clock_guard = Flag("The tick's CPU time also counts as work (constructor docstring).")
 
-    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set solver, one
-    #: core; the median CPU time per counted solve over the kinematic fuzz): the budget becomes a count of
-    #: ⌊budget / SOLVE_COST⌋ solves per tick (constructor, ``budget``).
+    # the numbers' roles: docs/kinematic-controller.md (tick budget, clock guard, safe command)
+    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set, one core;
+    #: the median per counted solve over the kinematic fuzz): a budget is ⌊budget / SOLVE_COST⌋ counted solves
     SOLVE_COST = 2.5e-4
-    #: a solved tick starts no further optional stage (strict level, contact correction, trust region) once
-    #: STAGE_FACTOR × its budget (in counted solves) is spent, so that the stage in progress, the output guard and
-    #: the drift checks still end within twice the budget (benchmarks/README.md, kinematic fuzz)
+    #: a solved tick starts no optional stage (strict level, contact correction, trust region) once STAGE_FACTOR ×
+    #: its budget is spent: the stage in progress, output guard and drift checks end within twice the budget
     STAGE_FACTOR = 1.75
-    #: with ``clock_guard``, one budget of the tick's CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋
-    #: solves: > 1 leaves the stage in progress, the output guard and the safe command a share of twice the budget
+    #: with ``clock_guard``, one budget of CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋ solves
     CLOCK_WEIGHT = 1.4
-    # the numbers below: their roles in docs/kinematic-controller.md (tick budget, clock guard, safe command)
     #: with ``clock_guard``: a stage after the first solve starts only when it ends, at the CPU time of the longest
     #: such stage of this tick, by STAGE_DEADLINE × the budget
     STAGE_DEADLINE = 1.5
@@ -140,67 +123,64 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.clock_guard = clock_guard
         if isinstance(damping, bool) or not (np.isfinite(damping) and damping > 0):
             raise InvalidInputError(f"damping must be finite and > 0, got {damping!r}")
-        self.robot = robot
-        self.nv = robot.model.nv
-        self.damping = float(damping)
-        self.rank_rtol = float(rank_rtol)
-        self.dependent_row_tolerance = float(dependent_row_tolerance)
-        if sole_drift_tolerance is not None and not (math.isfinite(sole_drift_tolerance) and sole_drift_tolerance > 0):
-            raise InvalidInputError(f"sole_drift_tolerance must be None or finite and > 0 (m; e.g. 5e-5), got "
-                                    f"{sole_drift_tolerance!r}")
-        self.sole_drift_tolerance = sole_drift_tolerance
-        if sole_rotation_tolerance is not None and not (math.isfinite(sole_rotation_tolerance)
-                                                        and sole_rotation_tolerance > 0):
-            raise InvalidInputError(f"sole_rotation_tolerance must be None or finite and > 0 (rad; e.g. 3e-4), got "
-                                    f"{sole_rotation_tolerance!r}")
-        self.sole_rotation_tolerance = sole_rotation_tolerance
+        for name, value, unit in (("sole_drift_tolerance", sole_drift_tolerance, "m; e.g. 5e-5"),
+                                  ("sole_rotation_tolerance", sole_rotation_tolerance, "rad; e.g. 3e-4")):
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise InvalidInputError(f"{name} must be None or finite and > 0 ({unit}), got {value!r}")
         if not (math.isfinite(contact_correction) and contact_correction >= 0):
             raise InvalidInputError(f"contact_correction must be finite and ≥ 0 (m; 0 switches the second-order "
                                     f"contact correction off, e.g. 1e-6), got {contact_correction!r}")
+        self.robot, self.nv = robot, robot.model.nv
+        self.damping, self.rank_rtol = float(damping), float(rank_rtol)
+        self.dependent_row_tolerance = float(dependent_row_tolerance)
+        self.sole_drift_tolerance, self.sole_rotation_tolerance = sole_drift_tolerance, sole_rotation_tolerance
         self.contact_correction = float(contact_correction)
         #: the tick's counted work, clock guard and stage costs (:class:`wbc.controllers.budget.TickBudget`)
         self.tick_budget = TickBudget()
         self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
         self._configure_budget()
         self.budget = budget
-        self._cut: list[str] = []
+        self._cut: list[str] = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
         #: the contact frames' drift over a tick (:class:`wbc.controllers.contact_hold.DriftMeter`)
         self.drift_meter = DriftMeter(robot.model)
         self._drift_data = self.drift_meter.data  # its Data: the compiled tick's scratch at q⁺
-        self.backend = make_backend(solver) if isinstance(solver, str) else solver
-        self.tasks: list[Task] = []
-        self.levels: dict[int, list[Task]] = {}
-        self.constraints: list[Constraint] = []
-        self._hard: dict[int, TaskConstraint] = {}
+        #: the range of the contact rows (:class:`wbc.controllers.contact_hold.ContactRange`)
+        self.contact_range = ContactRange()
         #: refuses tasks and constraints built for another robot (:class:`wbc.controllers.robot_check.RobotCheck`)
         self.robot_check = RobotCheck(robot.model)
-        self._level_order: list[int] = []
+        self.backend = make_backend(solver) if isinstance(solver, str) else solver
+        self._fallback_backend = self._final_backend = self._band_backend = None  # built when first needed
         self._level_backends: list[QPBackend] = []
+        self.tasks: list[Task] = []
+        self.levels: dict[int, list[Task]] = {}
+        self._level_order: list[int] = []
+        self.constraints: list[Constraint] = []
+        self._hard: dict[int, TaskConstraint] = {}
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
         self._weighted_left = 0  # clock guard: ticks still answered by the weighted form of the strict levels
         self._weighted_tick = False  # the current tick solves the strict levels as one weighted QP
         self._weighted_qp: tuple | None = None  # (H, g) of that QP at the current tick
-        self._fallback_backend: QPBackend | None = None
-        self._final_backend: QPBackend | None = None
-        self._band_backend: QPBackend | None = None
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
-        self._layout_ok = False
         self._context = KinematicContext()  # what Constraint.write reads (assemble)
-        self._layout_key: tuple | None = None
+        self._layout_ok, self._layout_key, self._eq_rows = False, None, None
         self._layouts: dict[tuple, dict] = {}
         self._soft_layouts: dict[tuple, tuple] = {}
         self._fused: FusedPlan | None = None  # the compiled tick's plan of the current layouts (solve)
         self._fused_plans: dict[tuple, FusedPlan] = {}
         self._fused_states: dict[int, FusedPlan] = {}  # the last plan per number of variables (its working set)
         self._prepared: set[tuple] = set()  # layouts built by prepare_layouts, not yet used by a tick
-        self._eq_rows: np.ndarray | None = None
+        self._soft_tasks = self._level_key = None  # the soft level's tasks / the strict levels' of _level_rows
+        self._level_rows: list[SoftRows] = []
+        self._in_solve, self._contact_expected = False, None
+        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
         #: failed ticks in a row up to the last tick (0 after an ok tick).
         self.consecutive_failures = 0
+        self.last_result = TickResult(np.zeros(self.nv))
         #: joints whose position range or velocity limit has zero width (locked: their bounds pin v to 0);
         #: found at build and reported once with a warning.
         self.locked_joints = zero_range_joints(robot.model)
@@ -211,32 +191,21 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self.add_task(t)
         for c in constraints:
             self.add_constraint(c)
-        self.last_result = TickResult(np.zeros(self.nv))
-        self._soft_tasks: list[Task] | None = None
-        self._level_key: tuple | None = None  # the strict levels' tasks of _level_rows
-        self._level_rows: list[SoftRows] = []
-        self._in_solve = False
-        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
-        self._contact_expected: list[np.ndarray] | None = None
-        #: the range of the contact rows (:class:`wbc.controllers.contact_hold.ContactRange`)
-        self.contact_range = ContactRange()
         load_kinematic_kernels()  # the compiled assembly is loaded here, not inside the first tick
 
     @property
     def budget(self) -> float | None:
-        """CPU time (s) of a tick before it falls back, counted in QP solves (constructor docstring), or None: the
-        tick's dt.
+        """CPU time (s) of a tick, counted in QP solves (constructor docstring), or None: the tick's dt.
 
         Raises:
-            InvalidInputError: on assignment, not None and not a finite number > 0.
+            InvalidInputError: on assignment, not None and not a number > 0.
         """
         return self._budget
 
     @budget.setter
     def budget(self, value) -> None:
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, np.floating,
-                                                                                        np.integer))
-                                  or not (value > 0)):
+        if value is not None and (isinstance(value, bool) or not (isinstance(value, (int, float, np.floating,
+                                                                                      np.integer)) and value > 0)):
             raise InvalidInputError(f"budget must be None (the tick's dt) or a number of seconds > 0 (math.inf: "
                                     f"no budget), got {value!r}")
         self._budget = None if value is None else float(value)
@@ -244,9 +213,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`: cap ⌊budget / ``SOLVE_COST``⌋
-        solves; with ``clock_guard``, budget / (CLOCK_WEIGHT × cap) seconds of CPU time count as one solve) and share
-        its work with every QP backend."""
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`) and share its work with every QP
+        backend."""
         self._configure_budget()
         self.tick_budget.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
@@ -289,9 +257,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
-            wrapper = TaskConstraint(task)
-            self._hard[id(task)] = wrapper
-            self.add_constraint(wrapper)
+            self._hard[id(task)] = self.add_constraint(TaskConstraint(task))
         elif level is None:
             self.tasks.append(task)
         else:
@@ -332,11 +298,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
 
         Args:
             constraint: the constraint.
-            index: its position in :attr:`constraints` (``list.insert``: 0 first, ``len(constraints)`` last);
-                None (default): appended. The order of the constraints is the order of their rows in the QP:
-                a caller that removes and adds back the same constraints (e.g. contacts at support switches)
-                keeps one order per set of constraints by inserting them where they were, so that the set's
-                row layout is built once and reused (:meth:`_build_layout`).
+            index: its position in :attr:`constraints`, the order of their rows in the QP (``list.insert``); None
+                (default): appended. Contacts removed and added back where they were (support switches) keep one
+                row layout per set of constraints, built once (:meth:`_build_layout`).
 
         Raises:
             InvalidInputError: not a wbc Constraint, built for another robot (other model, frame ids or nv), or
@@ -354,12 +318,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     f"InequalityConstraint, BoxConstraint of wbc.constraints)")
             raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
         self.robot_check.check(constraint, "constraint")
-        if index is None:
-            self.constraints.append(constraint)
-        else:
-            self.constraints.insert(int(index), constraint)
-        self._eq_rows = None
-        self._layout_ok = False
+        self.constraints.insert(len(self.constraints) if index is None else int(index), constraint)
+        self._eq_rows, self._layout_ok = None, False
         return constraint
 
     def remove_constraint(self, constraint: Constraint) -> None:
@@ -369,8 +329,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             ValueError: the constraint is not in the controller.
         """
         self.constraints.remove(constraint)
-        self._eq_rows = None
-        self._layout_ok = False
+        self._eq_rows, self._layout_ok = None, False
 
     # -- one tick -------------------------------------------------------------------------------------------
     def solve(self, config: Configuration, dt: float) -> TickResult:
@@ -388,8 +347,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                                          and math.isfinite(dt) and dt > 0)):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
-        self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
-        # counted in QP solves: deterministic
+        self._cut = []
         self._start_work(dt if self._budget is None else self._budget, self._fused)
         result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
         if result is not None:
@@ -424,42 +382,34 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         """The tick answered by the compiled tick (:mod:`wbc.controllers.compiled_tick`), or None: the general
         path answers it (any failure of the compiled tick but a typed input error)."""
         plan = self._fused
-        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key and self._soft_tasks == self.tasks
-                                and plan.soft_tasks is self._soft_tasks and plan.backend is self.backend
-                                and not self._level_order):
+        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key
+                                and self._soft_tasks == self.tasks and plan.soft_tasks is self._soft_tasks
+                                and plan.backend is self.backend and not self._level_order):
             plan = self._fused_plan(config, dt)
-        if plan is not None:
-            if plan.rescue is not None:
-                plan.rescue.work = self._work
-            try:
-                result = self._fused_tick(plan, config, dt, t0)
-            except InvalidInputError:
-                raise
-            except Exception:  # noqa: BLE001 — the general path below meets it again and handles it
-                result = None
-            if result is not None:
-                self.tick_budget.finish(dt)
-                return result
-        return None
+        if plan is None:
+            return None
+        if plan.rescue is not None:
+            plan.rescue.work = self._work
+        try:
+            return self._fused_tick(plan, config, dt, t0)
+        except InvalidInputError:
+            raise
+        except Exception:  # noqa: BLE001 — the general path meets it again and handles it
+            return None
 
     def _start_general(self) -> bool:
         """Set up the general path of the tick (backends' give-up counting, the strict levels' weighted form and
         reserve); True when the tick starts on the weighted form of its strict levels."""
         self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         if isinstance(self.backend, FastBackend):
-            # the general path of a flat QP's tick counts the kernel attempts that give up (and skips the kernel on
-            # its later problems of that shape; the compiled tick above uses no FastBackend): uncounted, a return-rate ladder and trust region on joints held at their limits spent
-            # twice the budget (kinematic fuzz seed 550037 episode 189). The strict cascade's stages keep their
-            # calibrated count (LEVEL_WORK, WEIGHTED_RESERVE)
+            # a flat tick counts the kernel's give-ups (uncounted, a return-rate ladder and trust region spent twice
+            # the budget); the strict cascade's stages keep their calibrated count (LEVEL_WORK, WEIGHTED_RESERVE),
+            # and its weighted form skips the kernel, uncounted, on later problems of a shape it gave up on
             self.backend.count_give_ups = not self._level_order
-            # the weighted form of strict levels (self.backend's only QP on their ticks) skips the kernel on the
-            # tick's later problems of a shape it gave up on, uncounted: its contact correction repeated a give-up
-            # of up to 100 iterations on each re-solve (kinematic fuzz seed 550004 episode 366 tick 0)
             self.backend.skip_give_ups = bool(self._level_order)
         self._assembled = False
         self._in_solve, self._contact_expected = True, None
         self.drift_meter.forget()
-        self._projected_contacts = []
         weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
         self._weighted_qp = None
@@ -476,32 +426,21 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         Raises:
             SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
         """
-        if self.contact_correction > 0 and self._contacts and not held:
-            v = self._correct_contacts(config, dt, v)
-        result = self._hold_contacts(config, dt, v, relaxed)
-        if (not result.ok and self._cut and self._level_order and not self._weighted_tick
-                and return_rate is None and not held):
-            result = self._weighted_answer(config, dt, relaxed) or result
-        if not result.ok and return_rate is not None and not held:
-            result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+        result = self._hold_contacts(config, dt, v, relaxed) if held else self._held_command(config, dt, v, relaxed)
+        if not result.ok and not held:
+            if return_rate is not None:
+                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+            elif self._cut and self._level_order and not self._weighted_tick:
+                result = self._weighted_answer(config, dt, relaxed) or result
         if result.ok:
             fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
             if fault:
                 raise SolverError(f"output guard: {fault}")
-            result.path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
-                           else TickPath("general", self.backend.name))
-            if return_rate is not None:
-                result.path = replace(result.path, return_rate=True)
-        else:  # no trust region kept the contacts: that command is not taken either (the safe command is)
-            raise DriftFailure(result.message)
-        if not result.ok and self._projected_contacts:
-            # the hard set had no solution until the dependent contact rows were made consistent: name them
-            result.conflicts = list(self._projected_contacts)
-            worst = max(d for _, d in self._projected_contacts)
-            names = [name for name, _ in self._projected_contacts]
-            result.message += (f"; the contacts {names} ask contradictory corrections of dependent "
-                               f"directions (projected by up to {worst:.3g} in their rows' units)")
-        return result
+            path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                    else TickPath("general", self.backend.name))
+            result.path = path if return_rate is None else replace(path, return_rate=True)
+            return result
+        raise DriftFailure(result.message)  # no trust region kept the contacts: the safe command is taken instead
 
     def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None,
                     dt: float) -> TickResult:
@@ -510,9 +449,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._in_solve = False
         self.drift_meter.forget()
         if self._level_order:
-            # a cascade that did not fit (its levels or the stages after it stopped by the budget): the next ticks
-            # answer with the weighted form (one QP), at least WEIGHTED_TICKS of them and until one is cheap enough
-            # for the cascade (TickBudget.cascade_fits)
+            # a cascade cut by the budget: the next WEIGHTED_TICKS ticks, and until one is cheap enough for the
+            # cascade, answer with the weighted form (one QP)
             if weighted_start:
                 self._weighted_left -= 1
                 if self._weighted_left <= 0 and not self.tick_budget.cascade_fits(
@@ -531,7 +469,4 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.consecutive_failures = 0 if result.ok else self.consecutive_failures + 1
         result.consecutive_failures = self.consecutive_failures
         self.last_result = result
-        self.tick_budget.finish(dt)
         return result
-
-    # -- failure handling -------------------------------------------------------------------------------------

@@ -37,22 +37,21 @@ class Recovery:
         """Diagnosis + safe command after a failed tick (module docstring; the conditions under which each safe
         command is taken, its scaling and its counted checks: ``docs/kinematic-controller.md``). Never raises."""
         message = str(exc) if isinstance(exc, SolverError) else f"{type(exc).__name__}: {exc}"
-        over_budget = False
+        if not self._assembled:
+            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
+                              path=TickPath("fallback", fallback="hold"), reason="exception")
         reason = ("sole_drift" if isinstance(exc, DriftFailure) else
                   "output_guard" if message.startswith("output guard") else
                   "nonfinite" if message.startswith("non-finite") else
                   "infeasible" if isinstance(exc, SolverError) else "exception")
-        conflicts: list[tuple[str, float]] = []
-        if not self._assembled:
-            return TickResult(np.zeros(self.nv), ok=False, message=f"assembly failed: {message}", fallback="hold",
-                              path=TickPath("fallback", fallback="hold"), reason="exception")
+        budget, work, tol = self.tick_budget, self._work, self.sole_drift_tolerance
+        over_budget, conflicts = False, []
         data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb,
                                    self._ub)
-        late = not self.tick_budget.may_start("retry")  # the tick's count spent before its failure handling
+        late = not budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
-        budget = self.tick_budget
         if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
-            self._work.solves += 1  # the diagnosis: one least-squares QP
+            work.solves += 1  # the diagnosis: one least-squares QP
             try:
                 conflicts = self.diagnose(config, dt, include_relaxable=False)
             except Exception as dexc:  # noqa: BLE001
@@ -64,25 +63,23 @@ class Recovery:
             message += "; diagnosis skipped: tick budget spent (KinematicController.diagnose(config, dt) names the " \
                        "conflict off the control path)"
         v, fallback = np.zeros(self.nv), "hold"
-        tol = self.sole_drift_tolerance
         if self._contacts and (self.consecutive_failures == 0 or self._held_anchors is None
                                or set(self._held_anchors) != set(map(id, self._contacts))):
             # where the contact frames were when this run of failed ticks began (their anchors)
             self._held_anchors = {id(c): config.frame_placement(c.frame_id).copy() for c in self._contacts}
         anchors = [self._held_anchors[id(c)] for c in self._contacts]
-        skipped = ""  # clock guard: the safe commands not tried, the tick's budget spent
-        count_stop = False  # the count stopped the checks of 'contacts_held' (hold, nothing more tried)
-        # the tick's count spent before its safe command (late): J_c v = 0 first, the cheapest command that keeps the
-        # contacts (β = 0 only, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
+        skipped = ""  # the safe commands not tried, the tick's budget spent
+        count_stop = False  # the count (not the clock) stopped the checks of 'contacts_held'
+        # past the tick's count (late): 'contacts_held' at β = 0 first (J_c v = 0, the cheapest command that keeps
+        # the contacts, each DAQP call at most HELD_ITERATIONS iterations), 'constraints_only' only after it
         held_first = late and bool(self._contact_rows.size) and not data_fault
         if not held_first and not data_fault and not budget.fits(max(budget.safe_stage_cost, budget.safe_estimate())):
             skipped = "constraints_only"
         elif not held_first and not data_fault:  # (non-finite QP data: hold)
             v, fallback = self._safe_constraints_only(config, dt, anchors)
         if fallback == "hold" and self._contact_rows.size and not data_fault and not skipped:
+            # 'contacts_held': each contact frame held at its anchor, the correction towards it scaled by β
             scales = (0.0,) if held_first else _HELD_CORRECTION_SCALES
-            # step 3: the contacts held where they were when this run of failed ticks began (their anchors), with
-            # the correction towards the anchors scaled by β = 1, 1/10, 0 (J_c v = 0)
             b0 = self._b.copy()
             if held_first and self._fallback_backend is None:
                 self._fallback_backend = self._new_backend()
@@ -96,23 +93,19 @@ class Recovery:
                     c.placement = anchor
                     self._b[r0:r1] = c.compute(config, dt)[1]
                 anchored = self._b[self._contact_rows].copy()
-                # dependent contact rows (two flat feet both fixing the base yaw) ask the same direction twice:
-                # their corrections are made consistent (least squares onto the range of J_c, as after a failed
-                # solve: _consistent_contact_rhs)
+                # dependent contact rows' corrections made consistent (as _consistent_contact_rhs)
                 Ur = self.contact_range.basis(self._A[self._contact_rows], self.rank_rtol)
                 if Ur.shape[1] < anchored.size:
                     anchored = Ur @ (Ur.T @ anchored)
                 tried = []  # (β, what became of its command) for the message
-                meter = self.drift_meter
                 for beta in scales:
-                    if not self.tick_budget.fits(self.tick_budget.safe_estimate() + self.tick_budget.check_cost):
+                    if not budget.fits(budget.safe_estimate() + budget.check_cost):
                         skipped = f"contacts_held from β = {beta:g}"
                         break
                     self._b[self._contact_rows] = beta * anchored
                     try:
-                        # β = 0 (J_c v = 0; v = 0 is a solution when the box holds it): the last command before a
-                        # hold gets its solver's own iteration limit, not the few iterations a spent tick count
-                        # leaves (its solves still counted)
+                        # β = 0 (v = 0 solves it when the box holds it): its solver's own iteration limit, not the
+                        # few iterations a spent count leaves (its solves still counted)
                         v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config, held_first)
                     except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
                         capped = getattr(self._fallback_backend, "iterations_capped", False)
@@ -124,24 +117,23 @@ class Recovery:
                         continue
                     d = math.nan
                     for _ in range(9 if beta == 0.0 else 1):
-                        counted_out = self._work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
-                        if counted_out or not self.tick_budget.fits(self.tick_budget.check_cost):
-                            skipped = "contacts_held (its last scalings)"
-                            count_stop = counted_out
+                        counted_out = work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
+                        if counted_out or not budget.fits(budget.check_cost):
+                            skipped, count_stop = "contacts_held (its last scalings)", counted_out
                             break
-                        self._work.add(self.CHECK_WORK)
-                        t = self._work.seconds()
-                        d = 0.0 if tol is None else meter.held_drift(config, v_h, dt, self._contacts, anchors, beta)
-                        held = (tol is None or d <= tol) and meter.within_radius(
+                        work.add(self.CHECK_WORK)
+                        t = work.seconds()
+                        d = 0.0 if tol is None else self.drift_meter.held_drift(config, v_h, dt, self._contacts,
+                                                                                anchors, beta)
+                        held = (tol is None or d <= tol) and self.drift_meter.within_radius(
                             config, v_h, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS)
-                        self.tick_budget.check_cost = max(self.tick_budget.check_cost, self._work.seconds() - t)
+                        budget.check_cost = max(budget.check_cost, work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
                             break
                         # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)
                         # (at most 1/2; 1/2 when the frames left the run's radius instead)
-                        scale = 0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))
-                        v_h = scale * v_h
+                        v_h = (0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))) * v_h
                     tried.append(f"β = {beta:g}: drift {d:.3g} m")
                     if fallback != "hold" or skipped:
                         break
@@ -171,10 +163,9 @@ class Recovery:
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
     def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
-        """The safe command of a failed tick (module docstring): the weighted soft level under the constraint
-        objects held in the buffers (hard tasks left out; nearly dependent rows once more as band rows, as
-        ``_solve_banded``), on the fallback backend; with the clock guard its CPU time is recorded
-        (``TickBudget.safe_estimate``). Raises SolverError."""
+        """The weighted soft level under the constraint objects in the buffers (hard tasks left out; nearly dependent
+        rows once more as band rows, as ``_solve_banded``) on the fallback backend; with the clock guard its CPU time
+        is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
         t = self._work.seconds() if self.clock_guard else 0.0
         try:
             H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
@@ -197,19 +188,15 @@ class Recovery:
                 budget.safe_fresh = True
 
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
-        """(v, 'constraints_only') when the safe command of step 2 (module docstring) is taken, else (zeros, 'hold'):
-        the constraint objects' QP, its contacts held to second order like an ok tick's (correction, trust region,
-        bounded by the tick's count), taken when finite, within the constraints, within ``sole_drift_tolerance`` and
-        within the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
+        """(v, 'constraints_only') when step 2's command (module docstring) is taken, else (zeros, 'hold'): its contacts
+        held like an ok tick's (correction, trust region, bounded by the tick's count), taken when within the
+        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            v_c = self._solve_constraints_only(config)
-            # the safe command holds the contacts to second order like an ok tick (correction, trust region)
-            if self.contact_correction > 0 and self._contacts:
-                v_c = self._correct_contacts(config, dt, v_c, self._solve_constraints_only, bounded=True)
-            v_c = self._hold_contacts(config, dt, v_c, [], self._solve_constraints_only, bounded=True).v
+            solve = self._solve_constraints_only
+            v_c = self._held_command(config, dt, solve(config), [], solve, bounded=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
                     tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
                     self.drift_meter.within_radius(config, v_c, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS):
@@ -221,21 +208,21 @@ class Recovery:
         return v, fallback
 
     def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:
-        """:meth:`_solve_constraints_only` with the QP backends' iteration limit not lowered by the tick's spent
-        count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`); its solves are counted as usual. ``bounded``: each
-        DAQP call of the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
-        load) instead of its solver's own limit. Raises SolverError."""
-        cap = self._work.cap
-        self._work.cap = math.inf
+        """:meth:`_solve_constraints_only` with the iteration limit not lowered by the tick's spent count
+        (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still counted); ``bounded``: each DAQP call of
+        the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any load).
+        Raises SolverError."""
+        cap, self._work.cap = self._work.cap, math.inf
         backend = self._fallback_backend
+        bounded = bounded and isinstance(backend, DaqpBackend)
         calls = getattr(backend, "call_iterations", None)
-        if bounded and isinstance(backend, DaqpBackend):
+        if bounded:
             backend.call_iterations = self.HELD_ITERATIONS
         try:
             return self._solve_constraints_only(config)
         finally:
             self._work.cap = cap
-            if bounded and isinstance(backend, DaqpBackend):
+            if bounded:
                 backend.call_iterations = calls
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:

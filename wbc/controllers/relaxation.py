@@ -45,9 +45,8 @@ class Relaxation:
 
     def _relaxation_ladder(self, config: Configuration, dt: float,
                            first_failure: SolverError) -> tuple[np.ndarray, list[str], float | None, bool]:
-        """The tick's QP failed (``first_failure``): its retries before it is declared failed (module docstring) —
-        dependent contact rows made consistent (least squares), the relaxable constraints left out, the return rate
-        of joints outside their limits scaled (``_relax_return_rate``).
+        """The retries of a tick whose QP failed (``first_failure``), in turn (module docstring): dependent contact
+        rows made consistent, the relaxable constraints left out, the return rate scaled (``_relax_return_rate``).
 
         Returns:
             (v, relaxed: what was relaxed, α of the return rate or None, held: the contacts' corrections dropped).
@@ -55,37 +54,25 @@ class Relaxation:
         Raises:
             SolverError: no retry solved (or the clock guard left none the time).
         """
-        return_rate, held = None, False
-        v = None
+        budget, v, relaxed, return_rate, held = self.tick_budget, None, [], None, False
         self._work.reserve = 0.0  # the relaxations count as before
-        # clock guard: no relaxation would end in time (the least-squares re-solve below, which decides
-        # whether the hard set has a solution at all, by RESCUE_DEADLINE budgets)
-        if not self.tick_budget.fits(self.tick_budget.resolve_cost, self.RESCUE_DEADLINE):
+        # clock guard: the least-squares re-solve below (does the hard set have a solution?) by RESCUE_DEADLINE
+        if not budget.fits(budget.resolve_cost, self.RESCUE_DEADLINE):
             raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)") from None
-        if self._level_order and not self._weighted_tick and not self.tick_budget.may_start("retry"):
-            # the failed cascade spent the tick's count: its retries below are answered by the weighted
-            # form of its levels (one QP each, as a cascade cut by the count is; fuzz seed 100014 episode
-            # 176 tick 39: the least-squares retry's cascade took 6 more solves, no correction was left)
+        if self._level_order and not self._weighted_tick and not budget.may_start("retry"):
+            # the failed cascade spent the tick's count: its retries are answered by the weighted form (one QP each)
             self._weighted_tick, self._weighted_qp = True, None
             self._cut.append("priority levels of the retries (their weighted form's command)")
         if self._contact_rows.size and self._consistent_contact_rhs():
-            # dependent contact rows asked contradictory corrections: once more in least squares (one
-            # solve or cascade, not cut by the budget: a strict cascade that had spent it failed ticks the
-            # weighted level solves, kinematic fuzz seed 410002)
-            try:
-                v = self._solve_assembled(config)
-            except SolverError:
-                v = None
-        relaxed = []
+            # dependent contact rows asked contradictory corrections: once more in least squares (one solve or
+            # cascade, not cut by the count: a cascade that had spent it failed ticks the weighted form solves)
+            v = self._try_solve(config)
         if v is None and self._relaxable:  # (one solve: not cut by the count)
-            if not self.tick_budget.fits(self.tick_budget.resolve_cost):
+            if not budget.fits(budget.resolve_cost):
                 raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
             self._relax(config, dt)
             relaxed = [c.name for c in self._relaxable]
-            try:
-                v = self._solve_assembled(config)
-            except SolverError:
-                v = None
+            v = self._try_solve(config)
         if v is None:
             v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
             relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
@@ -94,16 +81,14 @@ class Relaxation:
         return v, relaxed, return_rate, held
 
     def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
-        """Solve the tick again with the return rate of the joints outside their position limits scaled by α in
-        ``_RETURN_RATE_SCALES``: α = 0 first (the feasible sets are nested: when it has no solution no α has), then
-        the larger scales from 1/1000 up while they solve and the tick's count lasts, the largest kept; when even
-        α = 0 has no solution, with the contact rows J_c v = 0 too (``docs/kinematic-controller.md``, relaxations).
-        These trial solves are unconfirmed and not retried (``QPBackend.cold_retry``); with the clock guard each
-        starts only when a re-solve of the tick's QP still fits (``TickBudget.fits``).
+        """The tick solved again with the return rate of the joints outside their limits scaled by α: α = 0 first (the
+        feasible sets are nested: when it has no solution no α has; then also J_c v = 0), then from 1/1000 up while
+        they solve and the tick's count lasts, the largest kept (module docstring). Trial solves: unconfirmed, no
+        cold retry (:meth:`_unconfirmed`).
 
         Returns:
             (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
-            buffers hold the problem of the returned command (output guard, trust region).
+            buffers hold the problem of the returned command.
 
         Raises:
             SolverError: ``failure`` (the tick's) when no joint is outside its limits, or α = 0 has no solution
@@ -119,17 +104,11 @@ class Relaxation:
         with self._unconfirmed() as backends:
             self._lb[low] = 0.0
             self._ub[high] = 0.0
-            try:
-                v0 = self._solve_assembled(config)
-            except SolverError:
-                v0 = None
+            v0 = self._try_solve(config)
             if v0 is None and self._contact_rows.size and self.tick_budget.fits(self.tick_budget.resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
-                try:
-                    v0 = self._solve_assembled(config)
-                    held = True
-                except SolverError:
-                    v0 = None
+                v0 = self._try_solve(config)
+                held = v0 is not None
             if v0 is None:
                 raise SolverError(f"{failure}; no solution either with the joints outside their limits held where "
                                   f"they are (return rate 0)" + (", nor with the contacts held where they are"
@@ -140,26 +119,20 @@ class Relaxation:
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
                 if not self.tick_budget.may_start("retry", self.tick_budget.resolve_cost):
                     break
-                self._lb[low] = alpha * lb0
-                self._ub[high] = alpha * ub0
-                try:
-                    v, best = self._solve_assembled(config), alpha
-                except SolverError:
+                self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
+                v_alpha = self._try_solve(config)
+                if v_alpha is None:
                     break  # (feasible sets nested: no larger α has a solution)
-            self._lb[low] = best * lb0  # the buffers hold the problem of the returned command
-            self._ub[high] = best * ub0
+                v, best = v_alpha, alpha
+            self._lb[low], self._ub[high] = best * lb0, best * ub0  # the buffers: the returned command's problem
             self._return_bounds = (low, high, lb0, ub0)
             return v, best, held
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
                        result: TickResult) -> tuple[TickResult, float]:
-        """After the return-rate ladder (``_relax_return_rate``) kept α but no trust region held the contacts:
-        the smaller scales of ``_RETURN_RATE_SCALES`` down to 0, each solved and held by the trust region, while the
-        tick's stages last. The sole-drift bound of an ok tick ranks above the return rate: a return whose own
-        motion drifts a stance sole past ``sole_drift_tolerance`` is slowed until it does not (α = 0 only forbids
-        moving further out, and its trust region can shrink v to 0); last, α = 0 with the contacts' drift
-        corrections dropped (J_c v = 0, as the ladder's last step), whose drift is still measured from where the full
-        correction would send each frame.
+        """After the return-rate ladder kept α but no trust region held the contacts: the smaller scales down to 0,
+        each solved and held, while the tick's stages last (the sole-drift bound of an ok tick ranks above the return
+        rate); last α = 0 with J_c v = 0, its drift measured from where the full correction sends each frame.
 
         Returns:
             (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
@@ -171,15 +144,11 @@ class Relaxation:
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
-                self._lb[low] = a * lb0
-                self._ub[high] = a * ub0
-                try:
-                    v = self._solve_assembled(config)
-                except SolverError:
+                self._lb[low], self._ub[high] = a * lb0, a * ub0
+                v = self._try_solve(config)
+                if v is None:
                     continue
-                if self.contact_correction > 0 and self._contacts:
-                    v = self._correct_contacts(config, dt, v)
-                r = self._hold_contacts(config, dt, v, relaxed)
+                r = self._held_command(config, dt, v, relaxed)
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
                     return r, a
@@ -200,15 +169,20 @@ class Relaxation:
                 self._b[self._contact_rows] = b0
             elif self._contact_rows.size:
                 self._cut.append(f"slower returns below × {alpha:g}")
-            self._lb[low] = alpha * lb0
-            self._ub[high] = alpha * ub0
+            self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
             return result, alpha
+
+    def _try_solve(self, config: Configuration) -> np.ndarray | None:
+        """The command of the QP in the buffers (``_solve_assembled``), or None when that raises SolverError."""
+        try:
+            return self._solve_assembled(config)
+        except SolverError:
+            return None
 
     @contextmanager
     def _unconfirmed(self):
-        """The backends of the tick's QP (a list) with no independent confirmation inside the block: a failed trial
-        of a ladder only sends it to its next step; their ``independent`` restored and ``cold_retry`` back on at
-        its end."""
+        """The backends of the tick's QP (a list), unconfirmed inside the block (a failed trial only sends a ladder to
+        its next step); their ``independent`` restored and ``cold_retry`` back on at its end."""
         backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
         try:
@@ -234,20 +208,16 @@ class Relaxation:
         self._eq_rows = None
 
     def _weighted_answer(self, config: Configuration, dt: float, relaxed: list) -> TickResult | None:
-        """The tick answered again by the weighted form of its strict levels (one QP, its contact correction and
-        trust region, with the solves the cascade left: ``WEIGHTED_RESERVE``), after the cascade's command kept a
-        contact frame past ``sole_drift_tolerance`` because the budget stopped its correction or trust region;
-        None when that answer drifts too (or its QP fails): the cascade's failure stands."""
+        """The tick answered again by the weighted form of its strict levels (with the reserve the cascade left)
+        after the budget stopped the cascade's contact hold short of ``sole_drift_tolerance``; None when that answer
+        drifts too or fails: the cascade's failure stands."""
         if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             return None
         self._work.reserve = 0.0
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
         try:
-            v = self._solve_assembled(config)
-            if self.contact_correction > 0 and self._contacts:
-                v = self._correct_contacts(config, dt, v)
-            result = self._hold_contacts(config, dt, v, relaxed)
+            result = self._held_command(config, dt, self._solve_assembled(config), relaxed)
         except SolverError:
             result = None
         if result is not None and result.ok:
