@@ -265,3 +265,23 @@ def test_a_first_strict_tick_whose_cascade_cannot_fit_starts_on_the_weighted_for
     config.update(config.integrate(res.v, DT))
     nxt = ctrl.solve(config, DT)
     assert nxt.ok and nxt.path == "levels+weighted" and cascades == [] and ctrl._work.solves <= 4
+
+
+def test_a_cut_cascades_weighted_form_keeps_its_own_work_for_the_contact_correction(robots):
+    """Fuzz seed 8130 episode 5 (Talos, a far hand target, strict levels, dt 2 ms: a cap of 8 counted solves): ticks
+    1–25 are answered by the weighted form (a cascade cut on tick 0, ``WEIGHTED_TICKS``); on tick 26 the cascade
+    starts again, its first level spends 5.5 counted solves and it is cut (7 counted), the weighted form answers (1
+    more). Its contact correction was refused: the stage rule counted the tick's whole cascade as the work of one
+    re-solve (8 + 8 > 1.75 × 8), though a re-solve of that tick is its weighted form's alone (1 solve). The tick
+    failed on a sole drifting 5.01e-5 m (> 5e-5) and took the safe command; 189 of the 216 strict-level failures of
+    the 10⁶-tick kinematic fuzz at 67ee7a6 were such drift failures, most of them on tick 26. Now the correction runs:
+    the tick is ok, its soles within the drift bound (forward kinematics, own Data) and its counted solves within
+    1.75 × 8 + 1."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8130, 5)
+    assert (name, kind, strict, dt) == ("talos", "far", True, DT)
+    _run_to(ctrl, config, 26)
+    res = ctrl.solve(config, DT)
+    assert "priority levels after the first 1 of 3 (their weighted form's command)" in res.message, res.message
+    assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
+    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 15
