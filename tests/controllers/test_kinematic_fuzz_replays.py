@@ -285,3 +285,21 @@ def test_a_cut_cascades_weighted_form_keeps_its_own_work_for_the_contact_correct
     assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
     assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
     assert ctrl._work.cap == 8 and ctrl._work.solves <= 15
+
+
+def test_a_cascades_drifting_command_is_answered_by_the_weighted_form_with_its_own_correction(robots):
+    """Fuzz seed 8118 episode 32 (Talos, far, strict levels, dt 2 ms: cap 8): on tick 26 the cascade of 2 levels
+    ends (7 counted solves); its contact correction does not fit beside the weighted form's reserve (7 + 6 + 7 >
+    14), its command drifts, and the weighted form answers (``_weighted_answer``, 1 solve). That answer's correction
+    was refused as well: the stage rule took the cascade's 7 solves as the work of one of its re-solves (8 + 7 > 14),
+    and the tick failed on a sole drifting 0.113 mm. Now the weighted answer's re-solves count as its own (1): the
+    tick is ok, its soles within the drift bound (forward kinematics, own Data), at most 1.75 × 8 + 1 counted
+    solves."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8118, 32)
+    assert (name, kind, strict, dt) == ("talos", "far", True, DT)
+    _run_to(ctrl, config, 26)
+    res = ctrl.solve(config, DT)
+    assert "the cascade's contact correction after 0 of 3 re-solves" in res.message, res.message
+    assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
+    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 15
