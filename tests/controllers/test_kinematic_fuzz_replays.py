@@ -267,39 +267,31 @@ def test_a_first_strict_tick_whose_cascade_cannot_fit_starts_on_the_weighted_for
     assert nxt.ok and nxt.path == "levels+weighted" and cascades == [] and ctrl._work.solves <= 4
 
 
-def test_a_cut_cascades_weighted_form_keeps_its_own_work_for_the_contact_correction(robots):
-    """Fuzz seed 8130 episode 5 (Talos, a far hand target, strict levels, dt 2 ms: a cap of 8 counted solves): ticks
-    1–25 are answered by the weighted form (a cascade cut on tick 0, ``WEIGHTED_TICKS``); on tick 26 the cascade
-    starts again, its first level spends 5.5 counted solves and it is cut (7 counted), the weighted form answers (1
-    more). Its contact correction was refused: the stage rule counted the tick's whole cascade as the work of one
-    re-solve (8 + 8 > 1.75 × 8), though a re-solve of that tick is its weighted form's alone (1 solve). The tick
-    failed on a sole drifting 5.01e-5 m (> 5e-5) and took the safe command; 189 of the 216 strict-level failures of
-    the 10⁶-tick kinematic fuzz at 67ee7a6 were such drift failures, most of them on tick 26. Now the correction runs:
-    the tick is ok, its soles within the drift bound (forward kinematics, own Data) and its counted solves within
-    1.75 × 8 + 1."""
-    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8130, 5)
+
+@pytest.mark.parametrize("seed, episode, cut", [
+    (8130, 5, "priority levels after the first 1 of 3 (their weighted form's command)"),
+    (8118, 32, "the cascade's contact correction after 0 of 3 re-solves")])
+def test_a_cut_cascades_weighted_form_counts_its_own_work_for_the_contact_correction(robots, seed, episode, cut):
+    """Fuzz seeds 8130 episode 5 and 8118 episode 32 (Talos, a far hand target, strict levels, dt 2 ms: a cap of 8
+    counted solves); ticks 1–25 are answered by the weighted form (a cascade cut on tick 0, ``WEIGHTED_TICKS``) and
+    on tick 26 the cascade starts again:
+
+    * 8130/5: its first level spends 5.5 counted solves, the cascade is cut (7 counted) and the weighted form
+      answers (1 more);
+    * 8118/32: its 2 levels end (7 counted), its contact correction does not fit beside the weighted form's reserve
+      (7 + 6 + 7 > 14), its command drifts, and the weighted form answers (``_weighted_answer``, 1 solve).
+
+    In both, the weighted form's contact correction was refused: the stage rule took the cascade's 7 solves as the
+    work of one re-solve (8 + 7 > 14), though a re-solve of that tick is the weighted form's alone (1 solve); the
+    tick failed on a sole drifting 0.0501 / 0.113 mm (> 0.05) and took the safe command. Such drift failures were
+    189 of the 216 strict-level failures of the 10⁶-tick kinematic fuzz at 67ee7a6, most of them on tick 26. Now the
+    correction runs: the tick is ok, its soles within the drift bound (forward kinematics, own Data) and its counted
+    solves within 1.75 × 8 + 1."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, kind, strict, dt) == ("talos", "far", True, DT)
     _run_to(ctrl, config, 26)
     res = ctrl.solve(config, DT)
-    assert "priority levels after the first 1 of 3 (their weighted form's command)" in res.message, res.message
-    assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
-    assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
-    assert ctrl._work.cap == 8 and ctrl._work.solves <= 15
-
-
-def test_a_cascades_drifting_command_is_answered_by_the_weighted_form_with_its_own_correction(robots):
-    """Fuzz seed 8118 episode 32 (Talos, far, strict levels, dt 2 ms: cap 8): on tick 26 the cascade of 2 levels
-    ends (7 counted solves); its contact correction does not fit beside the weighted form's reserve (7 + 6 + 7 >
-    14), its command drifts, and the weighted form answers (``_weighted_answer``, 1 solve). That answer's correction
-    was refused as well: the stage rule took the cascade's 7 solves as the work of one of its re-solves (8 + 7 > 14),
-    and the tick failed on a sole drifting 0.113 mm. Now the weighted answer's re-solves count as its own (1): the
-    tick is ok, its soles within the drift bound (forward kinematics, own Data), at most 1.75 × 8 + 1 counted
-    solves."""
-    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8118, 32)
-    assert (name, kind, strict, dt) == ("talos", "far", True, DT)
-    _run_to(ctrl, config, 26)
-    res = ctrl.solve(config, DT)
-    assert "the cascade's contact correction after 0 of 3 re-solves" in res.message, res.message
+    assert cut in res.message, res.message
     assert res.ok and res.path == "levels+budget+weighted", (res.path, res.message)
     assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT
     assert ctrl._work.cap == 8 and ctrl._work.solves <= 15
