@@ -68,3 +68,13 @@ def test_a_feasible_problem_whose_budget_was_spent_never_takes_gravity_compensat
         run = run + 1 if (not ok and feasible) else 0
         longest = max(longest, run)
     assert longest <= LONGEST_FALLBACK_RUN
+
+
+def test_a_commanded_point_of_the_hard_set_is_held_when_the_next_tick_finds_none(monkeypatch):
+    """Seed 8433 episode 46 (G1; the one gravity-only tick on a feasible problem of the 10⁶-tick ID fuzz at
+    67ee7a6): tick 0 commands the hard set's point (no solved command to hold); tick 1's budget is spent before its
+    check finds a point. That point is held for tick 1 (``fallback:hold``) instead of gravity compensation."""
+    ticks = _replayed(monkeypatch, 8433, 46)
+    assert ticks[0][:3] == ("fallback:feasible", False, True), ticks[0]
+    assert ticks[1][:3] == ("fallback:hold", False, True), ticks[1]
+    assert [i for i, t in enumerate(ticks) if t[0] == "fallback:gravity" and t[2]] == []

@@ -214,6 +214,7 @@ class InverseDynamicsController:
         self.state = DynamicsState(self.robot)
         self.last_solution: IDSolution | None = None
         self._last_ok: IDCommand | None = None  # the last solved command, for one tick of zero-order hold
+        self._last_point: IDCommand | None = None  # the last tick's commanded point of the hard set (``_fail``)
         self.n_ticks = 0
         self.n_failures = 0
         self.n_relaxed = 0
@@ -285,7 +286,7 @@ class InverseDynamicsController:
                         message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,
                         path=sol.path, path_reason=sol.reason)
         cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
-        self._last_ok = cmd
+        self._last_ok, self._last_point = cmd, None
         return self._count(cmd, c0)
 
     def _count(self, cmd: IDCommand, c0: float) -> IDCommand:
@@ -311,6 +312,9 @@ class InverseDynamicsController:
         spent = self.qp.chain.budget_cut and self.qp.chain.hard_set_point and not self.qp.nonfinite_inputs()
         if not spent:
             self._last_ok = None
+            if prev is None:  # the previous tick commanded a point of its hard set (no solved command): held
+                prev = self._last_point
+        self._last_point = None
         if prev is None and spent:
             # no command to hold: the point of the hard set that the tick's check found (every hard row met)
             sol = self.qp.solution_from(self.state, self.qp.chain.hard_set_x)
@@ -318,6 +322,7 @@ class InverseDynamicsController:
                             message=f"{message}; the tick's budget was spent on a full QP whose hard set has a point, "
                                     "with no solved command to hold: that point is commanded",
                             dynamics_residual=sol.dynamics_residual, path=TickPath("fallback", fallback="feasible"))
+            self._last_point = cmd
         elif prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
             why = ("the tick's budget was spent on a full QP whose hard set has a point: the last solved command is "
                    "held" if spent else
