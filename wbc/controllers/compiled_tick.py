@@ -25,7 +25,7 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.controllers.output_guard import command_fault
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within_box, command_within_rows,
                                               contact_drift, contact_pair_drift, kinematic_finish_packed,
-                                              kinematic_reduced_packed, kinematic_tick_packed)
+                                              kinematic_reduced_packed, kinematic_tick_packed, kinematic_views)
 from wbc.solvers import DaqpBackend, FastBackend
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
@@ -122,7 +122,7 @@ class CompiledTick:
         """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers`: the QP's and the task rows' packed
         arrays of the current layouts and the plan's working sets (made once per plan, again if a layout's arrays
         were replaced)."""
-        fb, ib, _ = self._qp_pack
+        fb, ib = self._qp_pack
         soft = self._soft
         bufs = plan.buffers
         if bufs is None or bufs.fb is not fb or bufs.sfb is not soft.fb:
@@ -154,39 +154,29 @@ class CompiledTick:
         return None
 
     def _kept_fused_plan(self) -> FusedPlan:
-        """The :class:`FusedPlan` kept for the current layouts, built (:meth:`_build_fused_plan`) when there is
-        none (at most 16 kept)."""
+        """The :class:`FusedPlan` kept for the current layouts (at most 16), built when there is none (``supported``
+        False when the compiled tick does not cover them, :meth:`_fused_plan`)."""
         key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
         plan = self._fused_plans.get(key)
-        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = self._build_fused_plan()
-            while len(self._fused_plans) > 16:
-                self._fused_plans.pop(next(iter(self._fused_plans)))
-        return plan
-
-    def _build_fused_plan(self) -> FusedPlan:
-        """A new :class:`FusedPlan` for the current layouts (``supported`` False when the compiled tick does not
-        cover them, :meth:`_fused_plan`)."""
-        plan = FusedPlan()
-        plan.layout_key = self._layout_key
-        plan.soft_tasks = self._soft_tasks
-        plan.backend = self.backend
+        if plan is not None and plan.layout_key == self._layout_key and plan.soft_tasks is self._soft_tasks:
+            return plan
+        plan = self._fused_plans[key] = FusedPlan()
+        while len(self._fused_plans) > 16:
+            self._fused_plans.pop(next(iter(self._fused_plans)))
+        plan.layout_key, plan.soft_tasks, plan.backend = self._layout_key, self._soft_tasks, self.backend
         soft = self._soft
-        if soft.own or any(not plain for *_, plain in soft.rows):
-            return plan  # a task with its own cost (other than one posture task) or velocity target
-        if any(type(c) is not ContactConstraint for c in self._contacts):
-            return plan  # a contact with rows of its own
+        if soft.own or any(not plain for *_, plain in soft.rows) or any(
+                type(c) is not ContactConstraint for c in self._contacts):
+            return plan  # a task with its own cost (but one posture task) or velocity target; a contact's own rows
         nv = self.nv
         nr = nv - 6 if self._eliminating_row >= 0 else nv
         # the joint working set (kept across support switches: _fused_plan) then the rows', one array for the kernel
         plan.states = np.zeros(nr + self._C.shape[0], np.int8)
         plan.state, plan.rstate = plan.states[:nr], plan.states[nr:]
-        plan.vdt = self._qp_pack[2]["vdt"]
+        plan.vdt = kinematic_views.py_func(*self._qp_pack)[2][:nv]
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
         plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
-        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
-        plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
         plan.supported = True
         return plan
 
@@ -297,7 +287,7 @@ class CompiledTick:
         if rescue is None:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
             rescue.work = self._work
-        fb, ib, _ = self._qp_pack
+        fb, ib = self._qp_pack
         H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(fb, ib)
         try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
             x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
@@ -331,3 +321,5 @@ class FusedPlan:
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
     buffers = None  # its TickBuffers (CompiledTick._tick_buffers)
     drift_kernel = None  # contact_pair_drift, likewise
+    rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
+    box = None  # the kernel's box arguments (_kernel_box), made on the first tick

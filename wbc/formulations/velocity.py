@@ -32,8 +32,8 @@ from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityCo
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
-from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, rows_pack,
-                                              weighted_rows)
+from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, kinematic_views,
+                                              rows_pack, task_rows, weighted_rows)
 from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
@@ -123,10 +123,8 @@ class VelocityQP:
         self._eliminating_row = first[0] if first and free_flyer and not base_bounded else -1
         # the QP's buffers, packed with the compiled solver's workspace: every route reads them
         self._qp_pack = kinematic_pack(self.nv, n_eq, n_in, self._eliminating_row)
-        views = self._qp_pack[2]
-        self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
-        self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
-        self._box_rows = views["box"]  # (lb, ub)
+        qp, self._box_rows, *_ = kinematic_views.py_func(*self._qp_pack)  # numpy views; _box_rows: (lb, ub)
+        self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub = qp
         # each contact's rows written in place (views of A, b), and its factor dt − 1/K ((1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
@@ -306,10 +304,8 @@ def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
         else:
             soft.own.append(task)
     prow = np.zeros(0, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
-    # J, e, rowp (gain, weight, feed-forward of each stacked row), the posture's weights and indices: packed into two
-    # arrays, what the compiled tick reads (kinematic_tick_packed)
-    soft.fb, soft.ib, views = rows_pack(row, nv, prow)
-    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = views["J"], views["e"], views["rowp"], views["pw"], views["prow"]
+    soft.fb, soft.ib = rows_pack(row, nv, prow)  # what the compiled tick reads (kinematic_tick_packed)
+    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = task_rows.py_func(soft.fb, soft.ib)  # numpy views
     soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
     soft.wr = np.zeros(row)
     soft.rows = []
