@@ -19,6 +19,7 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
+from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
@@ -218,43 +219,32 @@ def _scratch_views(ws, n, nr, mr, p):
     return ws[o:o + n], ws[o + n:]
 
 
+@register_jitable
+def _rows(buf, o, k, n):
+    """buf[o:o + k n] as k rows of n (a view), and the offset after them (plain Python outside numba)."""
+    return buf[o:o + k * n].reshape((k, n)), o + k * n
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(ws, n, nr, mr, p):
     """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
-    o = n
-    HL = ws[o:o + 2 * nr * nr].reshape((2, nr, nr))
-    H, L = HL[0], HL[1]
-    o += 2 * nr * nr
-    vec = ws[o:o + 7 * nr].reshape((7, nr))  # g, lbr, ubr, row, x, z, t: consecutive (nr,) vectors
-    g, lbr, ubr, row, x, z, t = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
-    o += 7 * nr
-    Tc = ws[o:o + 6 * (nr + 1)].reshape((6, nr + 1))
-    o += 6 * (nr + 1)
-    Eb = ws[o:o + 36].reshape((6, 6))
-    o += 36
-    V = ws[o:o + 6 * nr].reshape((6, nr))
-    o += 6 * nr
-    wb = ws[o:o + 6]
-    o += 6
-    Cr = ws[o:o + p * nr].reshape((p, nr))
-    o += p * nr
-    rows = ws[o:o + 3 * p].reshape((3, p))  # lr, ur, mu
-    lr, ur, mu = rows[0], rows[1], rows[2]
-    o += 3 * p
-    Ar = ws[o:o + mr * nr].reshape((mr, nr))
-    o += mr * nr
-    eqs = ws[o:o + 2 * mr].reshape((2, mr))  # br, nu
-    br, nu = eqs[0], eqs[1]
-    o += 2 * mr
-    Y = ws[o:o + mr * nr].reshape((mr, nr))  # Y, S, rhs: solve_box_eq_ws (no rows of C)
-    o += mr * nr
-    S = ws[o:o + mr * mr].reshape((mr, mr))
-    o += mr * mr
-    rhs = ws[o:o + mr]
-    o += mr
-    eqres = ws[o:o + 1]
-    return (H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
+    H, o = _rows(ws, n, nr, nr)
+    L, o = _rows(ws, o, nr, nr)
+    vec, o = _rows(ws, o, 7, nr)  # g, lbr, ubr, row, x, z, t
+    Tc, o = _rows(ws, o, 6, nr + 1)
+    Eb, o = _rows(ws, o, 6, 6)
+    V, o = _rows(ws, o, 6, nr)
+    wb, o = _rows(ws, o, 1, 6)
+    Cr, o = _rows(ws, o, p, nr)
+    rows, o = _rows(ws, o, 3, p)  # lr, ur, mu
+    Ar, o = _rows(ws, o, mr, nr)
+    eqs, o = _rows(ws, o, 2, mr)  # br, nu
+    Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    S, o = _rows(ws, o, mr, mr)
+    rhs, o = _rows(ws, o, 1, mr)
+    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb[0], Cr, rows[0], rows[1],
+            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs[0], ws[o:o + 1])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -433,20 +423,14 @@ def kinematic_views(fb, ib):
     as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
-    H = fb[:nv * nv].reshape((nv, nv))
-    o = nv * nv
-    g = fb[o:o + nv]
-    o += nv
-    A = fb[o:o + neq * nv].reshape((neq, nv))
-    o += neq * nv
-    b = fb[o:o + neq]
-    o += neq
-    C = fb[o:o + p * nv].reshape((p, nv))
-    o += p * nv
-    lu = fb[o:o + 2 * p].reshape((2, p))
-    o += 2 * p
-    box = fb[o:o + 2 * nv].reshape((2, nv))
-    return KinematicQP(H, g, A, b, C, lu[0], lu[1], box[0], box[1]), box, fb[o + 2 * nv:], ib[4:], ib[3]
+    H, o = _rows(fb, 0, nv, nv)
+    g, o = _rows(fb, o, 1, nv)
+    A, o = _rows(fb, o, neq, nv)
+    b, o = _rows(fb, o, 1, neq)
+    C, o = _rows(fb, o, p, nv)
+    lu, o = _rows(fb, o, 2, p)
+    box, o = _rows(fb, o, 2, nv)
+    return KinematicQP(H, g[0], A, b[0], C, lu[0], lu[1], box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
