@@ -100,8 +100,7 @@ class CompiledTick:
             self._eq_rows = saved[2]
 
     def _prepare_fused(self, config: Configuration, dt: float) -> None:
-        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts),
-        kept where :meth:`_fused_plan` finds it; the working-set hand-over is left to the tick."""
+        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return
         plan = self._kept_fused_plan()
@@ -119,9 +118,8 @@ class CompiledTick:
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
 
     def _tick_buffers(self, plan: FusedPlan) -> TickBuffers:
-        """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers`: the QP's and the task rows' packed
-        arrays of the current layouts and the plan's working sets (made once per plan, again if a layout's arrays
-        were replaced)."""
+        """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers` (made again if a layout's arrays were
+        replaced)."""
         fb, ib = self._qp_pack
         soft = self._soft
         bufs = plan.buffers
@@ -130,10 +128,9 @@ class CompiledTick:
         return bufs
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
-        """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
-        with it), or None when the problem is outside what it covers: strict levels, a backend other than
-        :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or velocity target other than one plain
-        :class:`~wbc.tasks.PostureTask`, a contact of a subclass with rows of its own."""
+        """The compiled tick's plan for the current layouts, or None when the problem is outside what it covers:
+        strict levels, a backend other than :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or
+        velocity target other than one plain :class:`~wbc.tasks.PostureTask`, a contact of a subclass."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
         if not self._layout_ok:
@@ -181,11 +178,9 @@ class CompiledTick:
         return plan
 
     def _fused_tick(self, plan: FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
-        """One tick through the compiled solver (:func:`wbc.formulations.velocity_kernel.kinematic_solve`): the QP
-        assembled by :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and
-        solved exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality
-        rows are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
-        caller then solves the tick by the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        """One compiled tick (module docstring) on the buffers :meth:`assemble` writes. Returns None when no solver
+        ends at a KKT point within tolerance, the equality rows are rank deficient, or a contact drifts above
+        ``contact_correction`` / ``sole_drift_tolerance``: the general path then solves the tick."""
         if self._eq_rows is not None and self._eq_rows.size != self._A.shape[0]:
             return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
@@ -204,9 +199,7 @@ class CompiledTick:
         backend = self.backend
         tol = backend.tolerance
         budget = self.tick_budget
-        # one compiled call: the cost (form_qp); the finite check of the cost and contact targets (NaN and inf
-        # propagate into their sums; else the general path meets them and fails the tick); the solve; the output
-        # guard's compiled screens (v finite, inside the assembled box and inequality rows to the tolerance)
+        # one compiled call: the cost, its finite check and b's, the solve, the output guard's screens
         args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
                 budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
@@ -275,13 +268,10 @@ class CompiledTick:
         return result
 
     def _fused_rescue(self, plan: FusedPlan, v: np.ndarray, dt: float) -> int:
-        """The compiled solver gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision
-        rows of the thighs, or its iteration cap): that same QP
-        (:func:`wbc.formulations.velocity_kernel.kinematic_reduced_packed`) is solved by DAQP, whose dual active set
-        handles dependent constraints, and the tick completed from its solution
-        (:func:`wbc.formulations.velocity_kernel.kinematic_finish_packed`: base velocity, every original row checked).
-        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers). Returns 1 on
-        success, else the kernel's exit code (the general path then solves the tick)."""
+        """The kernel gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision rows of
+        the thighs, or its iteration cap): DAQP, whose dual active set handles dependent constraints, solves that QP
+        and the tick is completed from its answer; the kernel's next tick is warm-started from DAQP's working set.
+        Returns 1 on success, else the kernel's exit code (the general path then solves the tick)."""
         backend = self.backend
         rescue = plan.rescue
         if rescue is None:
@@ -310,12 +300,10 @@ class CompiledTick:
 
 
 class FusedPlan:
-    """What the compiled tick (:meth:`KinematicController._fused_tick`) keeps for one constraint layout and one
-    list of soft tasks beyond the assembled QP's buffers: the solver's working sets (warm start), the contacts'
-    log buffer and the DAQP rescue backend. ``states`` (nr + p,) int8: the working sets of the nr reduced variables
-    (``state``, a view) and of the p inequality rows (``rstate``, a view), one array for the kernel
-    (:func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`; −1 / 0 / 1: at its lower bound / free / at
-    its upper bound)."""
+    """What the compiled tick keeps for one constraint layout and one list of soft tasks beyond the QP's buffers:
+    ``states`` (nr + p,) int8, the working sets of the nr reduced variables (``state``) and the p inequality rows
+    (``rstate``) (−1 / 0 / 1: at the lower bound / free / at the upper bound), the contacts' log buffer, the DAQP
+    rescue backend."""
 
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)

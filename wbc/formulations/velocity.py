@@ -103,8 +103,7 @@ class VelocityQP:
             self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
-        self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
-        self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
+        self._const_prefix = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, n_eq = row_blocks(eq)
         contact_ids = set(map(id, self._contacts))
         self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
@@ -114,7 +113,7 @@ class VelocityQP:
         relax = set(map(id, self._relaxable))  # their row blocks, one list (boxes: re-intersected without them)
         self._relaxable_blocks = [blk for blk in (*self._eq_blocks, *self._in_blocks) if id(blk[0]) in relax]
         # the compiled solver eliminates the floating base (a free flyer at v[0:6] no box bounds) by the first
-        # contact's 6 rows (kinematic_solve)
+        # contact's rows
         model = self.robot.model
         free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
             model.joints[1].idx_v == 0
@@ -163,18 +162,12 @@ class VelocityQP:
     def assemble(self, config: Configuration, dt: float) -> QPData:
         """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
         route solves. Returns :class:`~wbc.solvers.qp_data.QPData` (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)):
-        views of the controller's buffers, overwritten at the next call. The task rows are gathered into stacked
-        buffers (``compute_into``) and the cost formed by :func:`wbc.formulations.velocity_kernel.form_qp`; each
-        constraint writes its rows in place (:meth:`~wbc.constraints.base.Constraint.write`); the box is the
-        intersection of the bound constraints' own bounds (``_intersect_boxes``).
-        """
+        views of the controller's buffers, overwritten at the next call."""
         return QPData(*self._assemble(config, dt, True))
 
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
-        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
-        are kept in ``_posture_diff``, ``_posture_gain`` for :func:`~wbc.formulations.velocity_kernel.form_qp` (the
-        compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`); with
-        ``boxes`` False, lb and ub are left to the caller too (the compiled tick's box, :meth:`_kernel_box`)."""
+        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the compiled tick (the posture's q ⊖ q*
+        and gain kept in ``_posture_diff``, ``_posture_gain``), with ``boxes`` False lb and ub too."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
@@ -230,9 +223,8 @@ class VelocityQP:
 
     def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
         """The box argument of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
-        layout: KernelBox(idx, limits, constant box (2, nv)) when the boxes are constant ones followed by one
-        :class:`~wbc.constraints.JointPositionLimit` (the kernel then writes lb, ub as :meth:`_intersect_boxes`
-        does), else empty arrays (lb, ub assembled here)."""
+        layout: its constant boxes and one :class:`~wbc.constraints.JointPositionLimit` after them, else
+        ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
         if self._const_prefix is None:
             self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
         rest = self._box_sel[self._const_prefix:]

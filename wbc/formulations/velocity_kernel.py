@@ -219,7 +219,7 @@ def _scratch_views(ws, n, nr, mr, p):
     return ws[o:o + n], ws[o + n:]
 
 
-@register_jitable
+@register_jitable(inline="always")  # inlined in numba IR: no call, no reference counting of its views
 def _rows(buf, o, k, n):
     """buf[o:o + k n] as k rows of n (a view), and the offset after them (plain Python outside numba)."""
     return buf[o:o + k * n].reshape((k, n)), o + k * n
