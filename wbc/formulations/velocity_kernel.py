@@ -55,9 +55,8 @@ TickBuffers = namedtuple("TickBuffers", "fb ib sfb sib states")
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _eliminate_base(A, b, er, nr, Eb, Tc):
-    """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the 6 equality rows E = A[er:er + 6] (E_b their
-    first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting. Returns False
-    when E_b is singular (a pivot ≤ 1e-12 × its largest entry)."""
+    """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the rows E = A[er:er + 6] (E_b: the base's
+    columns) by Gaussian elimination with partial pivoting; False when a pivot ≤ 1e-12 × E_b's largest entry."""
     scale = 0.0
     for i in range(6):
         for j in range(6):
@@ -128,9 +127,9 @@ def _weighted_row(Js, es, rowp, k, row):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_rows(Js, es, rowp, out_J, out_r):
-    """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
-    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k −
-    K_k e_k (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+    """The stacked task rows with their weights applied, as a strict priority level takes them
+    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k, v*_k = ff_k −
+    K_k e_k (the formula of :func:`form_qp`).
 
     Args:
         Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
@@ -165,8 +164,7 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _form_qp_into(rows, diff, pgain, damping, H, g, row):
-    """:func:`form_qp` on the task rows ``rows`` (:class:`TaskRows`) with its row buffer row (nv,) given (scratch:
-    no allocation)."""
+    """:func:`form_qp` on ``rows`` (:class:`TaskRows`) with its scratch row (nv,) given."""
     Js, es, rowp, pw, prow = rows
     n = H.shape[0]
     g[:] = 0.0
@@ -225,6 +223,12 @@ def _rows(buf, o, k, n):
     return buf[o:o + k * n].reshape((k, n)), o + k * n
 
 
+@register_jitable(inline="always")
+def _vec(buf, o, n):
+    """buf[o:o + n] (a view) and the offset after it."""
+    return buf[o:o + n], o + n
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(ws, n, nr, mr, p):
     """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for n
@@ -235,16 +239,16 @@ def _solve_views(ws, n, nr, mr, p):
     Tc, o = _rows(ws, o, 6, nr + 1)
     Eb, o = _rows(ws, o, 6, 6)
     V, o = _rows(ws, o, 6, nr)
-    wb, o = _rows(ws, o, 1, 6)
+    wb, o = _vec(ws, o, 6)
     Cr, o = _rows(ws, o, p, nr)
     rows, o = _rows(ws, o, 3, p)  # lr, ur, mu
     Ar, o = _rows(ws, o, mr, nr)
     eqs, o = _rows(ws, o, 2, mr)  # br, nu
     Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
     S, o = _rows(ws, o, mr, mr)
-    rhs, o = _rows(ws, o, 1, mr)
-    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb[0], Cr, rows[0], rows[1],
-            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs[0], ws[o:o + 1])
+    rhs, o = _vec(ws, o, mr)
+    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb, Cr, rows[0], rows[1],
+            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs, ws[o:o + 1])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -424,13 +428,14 @@ def kinematic_views(fb, ib):
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
     H, o = _rows(fb, 0, nv, nv)
-    g, o = _rows(fb, o, 1, nv)
+    g, o = _vec(fb, o, nv)
     A, o = _rows(fb, o, neq, nv)
-    b, o = _rows(fb, o, 1, neq)
+    b, o = _vec(fb, o, neq)
     C, o = _rows(fb, o, p, nv)
-    lu, o = _rows(fb, o, 2, p)
+    l, o = _vec(fb, o, p)
+    u, o = _vec(fb, o, p)
     box, o = _rows(fb, o, 2, nv)
-    return KinematicQP(H, g[0], A, b[0], C, lu[0], lu[1], box[0], box[1]), box, fb[o:], ib[4:], ib[3]
+    return KinematicQP(H, g, A, b, C, l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
