@@ -58,10 +58,10 @@ def row_blocks(constraints) -> tuple[list, int]:
 
 
 class VelocityQP:
-    """The kinematic QP of the module docstring: its row layout and buffers, and their assembly. The controller
+    """The kinematic QP of the module docstring: its row layouts and buffers (per constraint list and per soft-task
+    list, each cached) and their assembly (:meth:`assemble`). The controller
     (:class:`wbc.controllers.kinematic.KinematicController`, which derives from it) owns the task and constraint
-    lists, the robot and ``damping``; this class lays out the rows per constraint list (``_build_layout``) and per
-    soft-task list (``_build_soft_layout``), each cached, and writes the QP at each tick (:meth:`assemble`)."""
+    lists, the robot and ``damping``."""
 
     #: counted solves added to a tick that builds a new row layout: the build and the tick's first solves on fresh
     #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)
@@ -142,12 +142,8 @@ class VelocityQP:
         self._layout_ok = True
 
     def _build_soft_layout(self) -> None:
-        """Stacked rows of the soft tasks, gathered by :meth:`assemble` and turned into the cost by one compiled
-        call (:func:`wbc.formulations.velocity_kernel.form_qp`): the Jacobians J, the errors e and, per row, gain K,
-        weight w and feed-forward ė* (v* = ė* − K e; a task with its own velocity target writes v* as e with K = −1, ė*
-        = 0), and one plain :class:`~wbc.tasks.PostureTask` as the diagonal term of ``form_qp``; the other tasks with
-        their own cost (``Task.add_cost``) add it after. Redone when ``tasks`` changes; kept per task list (the same
-        task objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
+        """The soft tasks' stacked rows (:func:`stack_rows`), redone when ``tasks`` changes and kept per task list
+        (the same task objects in the same order and sizes): a swing task that comes back reuses its layout."""
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
         if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
@@ -279,10 +275,10 @@ class VelocityQP:
 
 
 def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
-    """Stacked-row buffers of ``tasks`` (``KinematicController._build_soft_layout``). ``own_costs``: one plain
+    """Stacked-row buffers of ``tasks`` (:class:`SoftRows`). ``own_costs`` (the soft level): one plain
     :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.formulations.velocity_kernel.form_qp` and
-    the tasks with their own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a
-    strict level)."""
+    the tasks with their own ``add_cost`` (added to H, g after it) are listed apart; else (a strict level) every task
+    is a stack of rows. A task with its own velocity target writes v* as e with K = −1, ė* = 0."""
     soft = SoftRows()
     soft.tasks = list(tasks)
     dense, soft.own, soft.posture = [], [], None
@@ -338,9 +334,8 @@ def gather_rows(soft: SoftRows, config: Configuration) -> None:
 
 
 class SoftRows:
-    """The stacked rows of one task list (:func:`stack_rows`: the soft level, or a strict level): ``J`` (mt, nv),
-    ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row, ``wJ``, ``wr``: a strict level's rows with the
-    weights applied; ``rows``, per task with the generic cost,
-    (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task taken as the
-    diagonal of :func:`wbc.formulations.velocity_kernel.form_qp` (``posture``, its weights ``pw`` and velocity indices
-    ``prow``); the tasks with their own cost (``own``)."""
+    """The stacked rows of one task list (:func:`stack_rows`): ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt) =
+    gain, weight, feed-forward per row; ``wJ``, ``wr``: a strict level's rows with the weights applied; ``rows``, per
+    task with the generic cost, (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the
+    posture task (``posture``, its weights ``pw`` and velocity indices ``prow``); the tasks with their own cost
+    (``own``)."""
