@@ -113,19 +113,9 @@ class CompiledTick:
                 and q.flags.writeable:
             soft, backend = self._soft, self.backend
             pgain = 0.0 if soft.posture is None else soft.posture.gain
-            args = (self._tick_buffers(plan), soft.no_diff, pgain, self.damping, np.empty(self.nv), float(dt),
-                    backend.tolerance, backend.max_iter, q, plan.box)
+            args = (TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states), soft.no_diff, pgain, self.damping,
+                    np.empty(self.nv), float(dt), backend.tolerance, backend.max_iter, q, plan.box)
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
-
-    def _tick_buffers(self, plan: FusedPlan) -> TickBuffers:
-        """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers` (made again if a layout's arrays were
-        replaced)."""
-        fb, ib = self._qp_pack
-        soft = self._soft
-        bufs = plan.buffers
-        if bufs is None or bufs.fb is not fb or bufs.sfb is not soft.fb:
-            bufs = plan.buffers = TickBuffers(fb, ib, soft.fb, soft.ib, plan.states)
-        return bufs
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
         """The compiled tick's plan for the current layouts, or None when the problem is outside what it covers:
@@ -199,8 +189,11 @@ class CompiledTick:
         backend = self.backend
         tol = backend.tolerance
         budget = self.tick_budget
+        bufs, soft = plan.buffers, self._soft
+        if bufs is None or bufs.fb is not self._qp_pack[0] or bufs.sfb is not soft.fb:  # made again for new arrays
+            bufs = plan.buffers = TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states)
         # one compiled call: the cost, its finite check and b's, the solve, the output guard's screens
-        args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
+        args = (bufs, self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
                 budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
@@ -307,7 +300,7 @@ class FusedPlan:
 
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
-    buffers = None  # its TickBuffers (CompiledTick._tick_buffers)
+    buffers = None  # its TickBuffers (made on the first tick)
     drift_kernel = None  # contact_pair_drift, likewise
     rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
     box = None  # the kernel's box arguments (_kernel_box), made on the first tick
