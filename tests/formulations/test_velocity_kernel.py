@@ -19,7 +19,7 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     block (on odd seeds zero on most joint columns, as a contact's Jacobian outside its chain), inequality rows, a
     velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
     the full-space kernel must give up on that QP too."""
-    from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve_packed
+    from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve, kinematic_views
 
     rng = np.random.default_rng(500 + seed)
     nv = int(rng.integers(16, 40))
@@ -29,7 +29,8 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     er = 0 if eliminate else -1
     joints = np.arange(6, nv)
     kl = joints.size
-    fb, ib, x = kinematic_pack(nv, n_eq, n_in, er)
+    fb, ib = kinematic_pack(nv, n_eq, n_in, er)
+    x, _, ws, iws, _ = kinematic_views.py_func(fb, ib)
     Js = rng.standard_normal((mt, nv))
     es = rng.standard_normal(mt)
     rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), 0.3 * rng.standard_normal(mt)])
@@ -38,12 +39,12 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     if seed % 2:  # like a contact's Jacobian: zero on the joints outside its chain
         A[:6, 6:][:, rng.random(nv - 6) < 0.7] = 0.0
     v0 = rng.uniform(-0.3, 0.3, nv)  # a feasible point
-    x["A"][:] = A
-    x["b"][:] = A @ v0
+    x.A[:] = A
+    x.b[:] = A @ v0
     C = rng.standard_normal((n_in, nv))
-    x["C"][:] = C
-    x["l"][:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
-    x["u"][:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
+    x.C[:] = C
+    x.l[:] = C @ v0 - rng.uniform(0.0, 0.5, n_in)
+    x.u[:] = C @ v0 + rng.uniform(0.0, 0.5, n_in)
     vmax = np.abs(v0[joints]) + rng.uniform(0.2, 2.0, kl)
     q = rng.uniform(-1, 1, nq)
     idx_q = joints + 1
@@ -55,10 +56,10 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     lo = np.minimum((qmin - q[idx_q]) / dt, vmax)
     hi = np.maximum((qmax - q[idx_q]) / dt, -vmax)
     lb[joints], ub[joints] = np.minimum(np.maximum(lo, -vmax), vmax), np.maximum(np.minimum(hi, vmax), -vmax)
-    x["lb"][:], x["ub"][:] = lb, ub
+    x.lb[:], x.ub[:] = lb, ub
     pw = rng.uniform(0.01, 0.1, kl)
     diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
-    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x["H"], x["g"])
+    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x.H, x.g)
     # the same cost in numpy: ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
     gain, w, ff = rowp
     target = ff - gain * es
@@ -67,29 +68,29 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     s = -pgain * diff
     H = Js.T @ (w[:, None] * Js) + np.diag(d + damping)
     g = -Js.T @ (w * target) - d * s
-    assert np.abs(x["H"] - H).max() < 1e-12 * max(1.0, np.abs(H).max())
-    assert np.abs(x["g"] - g).max() < 1e-12 * max(1.0, np.abs(g).max())
-    assert np.array_equal(x["H"], x["H"].T)
+    assert np.abs(x.H - H).max() < 1e-12 * max(1.0, np.abs(H).max())
+    assert np.abs(x.g - g).max() < 1e-12 * max(1.0, np.abs(g).max())
+    assert np.array_equal(x.H, x.H.T)
     before = fb.copy()
     nr = nv - 6 if eliminate else nv
     state, rstate, v = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
-    it = kinematic_solve_packed(fb, ib, state, rstate, v, dt, 1e-6, 200)
-    qp_size = x["ws"].ctypes.data - fb.ctypes.data
+    it = kinematic_solve(x, er, dt, 1e-6, 200, state, rstate, ws, iws, v)
+    qp_size = ws.ctypes.data - fb.ctypes.data
     assert np.array_equal(fb[:qp_size // 8], before[:qp_size // 8])  # the assembled QP is read, never written
-    G, h = np.vstack([C, -C]), np.concatenate([x["u"], -x["l"]])
-    ref = qpsolvers.solve_qp(H, g, G=G if n_in else None, h=h if n_in else None, A=A, b=x["b"],
+    G, h = np.vstack([C, -C]), np.concatenate([x.u, -x.l])
+    ref = qpsolvers.solve_qp(H, g, G=G if n_in else None, h=h if n_in else None, A=A, b=x.b,
                              lb=np.where(np.isfinite(lb), lb, -1e20), ub=np.where(np.isfinite(ub), ub, 1e20),
                              solver="quadprog")
     assert ref is not None
     if it < 1:  # the single-pivot working set gave up (cold start, many active bounds): so does the full-space
         full = make_backend("fast")  # kernel on the same QP, and both controllers' ticks go to DAQP
-        full.solve(H, g, A, x["b"], C, x["l"], x["u"], lb, ub)
+        full.solve(H, g, A, x.b, C, x.l, x.u, lb, ub)
         assert full.kernel_solves == 0 and full.fallbacks == 1
         return
     assert np.abs(v - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
-    assert np.abs(A @ v - x["b"]).max() < 1e-7  # the kernel accepts ≤ its tolerance (1e-6 here)
+    assert np.abs(A @ v - x.b).max() < 1e-7  # the kernel accepts ≤ its tolerance (1e-6 here)
     assert (v >= lb - 1e-9).all() and (v <= ub + 1e-9).all()
-    assert np.abs(x["vdt"] - v * dt).max() == 0.0
+    assert np.abs(ws[:nv] - v * dt).max() == 0.0
 
 
 def test_contact_drift_against_pinocchio():
@@ -294,13 +295,14 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
     from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, command_within_box,
-                                                  command_within_rows, form_qp,
-                                                  kinematic_pack, kinematic_reduced_packed, kinematic_solve_packed,
-                                                  kinematic_tick_packed, rows_pack)
+                                                  command_within_rows, form_qp, kinematic_pack,
+                                                  kinematic_reduced_packed, kinematic_solve, kinematic_tick_packed,
+                                                  kinematic_views, rows_pack, task_rows)
 
     rng = np.random.default_rng(900 + seed)
     nv, mt, n_eq, n_in = 20, 5, 6, seed % 3
-    packs = [kinematic_pack(nv, n_eq, n_in, 0) for _ in range(2)]
+    packs = [(fb, ib, kinematic_views.py_func(fb, ib))
+             for fb, ib in (kinematic_pack(nv, n_eq, n_in, 0) for _ in range(2))]
     Js, es = rng.standard_normal((mt, nv)), rng.standard_normal(mt)
     rowp = np.array([rng.uniform(0, 2, mt), rng.uniform(0.1, 10, mt), rng.standard_normal(mt)])
     prow = np.arange(6, nv, dtype=np.int64)
@@ -309,37 +311,38 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     A[:, :6] += 3 * np.eye(6)
     v0 = rng.uniform(-0.3, 0.3, nv)
     C = rng.standard_normal((n_in, nv))
-    for fb, ib, x in packs:
-        x["A"][:], x["b"][:], x["C"][:] = A, A @ v0, C
-        x["l"][:], x["u"][:] = C @ v0 - 0.2, C @ v0 + 0.2
-        x["lb"][:6], x["ub"][:6] = -np.inf, np.inf
-        x["lb"][6:], x["ub"][6:] = -1.0, 1.0
-    (fb1, ib1, x1), (fb2, ib2, x2) = packs
+    for fb, ib, (x, *_) in packs:
+        x.A[:], x.b[:], x.C[:] = A, A @ v0, C
+        x.l[:], x.u[:] = C @ v0 - 0.2, C @ v0 + 0.2
+        x.lb[:6], x.ub[:6] = -np.inf, np.inf
+        x.lb[6:], x.ub[6:] = -1.0, 1.0
+    (fb1, ib1, (x1, _, ws1, iws1, _)), (fb2, ib2, (x2, _, ws2, _, _)) = packs
     nr = nv - 6
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
     states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
     s2 = states2[:nr]
-    form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1["H"], x1["g"])
-    it1 = kinematic_solve_packed(fb1, ib1, s1, r1, v1, 0.002, 1e-6, 200)
-    guard1 = it1 >= 1 and command_within_box(v1, x1["lb"], x1["ub"], 1e-6) and (
-        n_in == 0 or command_within_rows(v1, C, x1["l"], x1["u"], 1e-6))
-    sfb, sib, rows = rows_pack(mt, nv, prow)
-    rows["J"][:], rows["e"][:], rows["rowp"][:], rows["pw"][:] = Js, es, rowp, pw
+    form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1.H, x1.g)
+    it1 = kinematic_solve(x1, 0, 0.002, 1e-6, 200, s1, r1, ws1, iws1, v1)
+    guard1 = it1 >= 1 and command_within_box(v1, x1.lb, x1.ub, 1e-6) and (
+        n_in == 0 or command_within_rows(v1, C, x1.l, x1.u, 1e-6))
+    sfb, sib = rows_pack(mt, nv, prow)
+    rows = task_rows.py_func(sfb, sib)
+    rows.J[:], rows.e[:], rows.rowp[:], rows.pw[:] = Js, es, rowp, pw
     it2, guard2 = kinematic_tick_packed(TickBuffers(fb2, ib2, sfb, sib, states2), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
                                         200, np.zeros(0), NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
     # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
-    assert all(np.array_equal(x1[k], x2[k]) for k in x1 if k != "ws")
+    assert all(np.array_equal(a, b) for a, b in zip(x1, x2)) and np.array_equal(ws1[:nv], ws2[:nv])
     assert all(np.array_equal(a, b) for a, b in zip(kinematic_reduced_packed(fb1, ib1),
                                                    kinematic_reduced_packed(fb2, ib2)))
     assert np.array_equal(v1, v2) and np.array_equal(s1, s2) and np.array_equal(r1, states2[nr:])
     for bad in ("b", "cost"):
-        fb, ib, x = packs[1]
+        fb, ib, (x, *_) = packs[1]
         states = states2.copy()
-        x["b"][0] = np.nan if bad == "b" else A[0] @ v0
-        rows["e"][:] = es
+        x.b[0] = np.nan if bad == "b" else A[0] @ v0
+        rows.e[:] = es
         if bad == "cost":
-            rows["e"][0] = np.inf
+            rows.e[0] = np.inf
         code, guard = kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, states), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
                                             200, np.zeros(0), NO_KERNEL_BOX)
         assert code == NONFINITE_RHS and not guard and np.array_equal(states, states2)
@@ -352,15 +355,17 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
     (numpy formula, each bound clipped into the constant one), before anything else: also when it then
     refuses a non-finite right-hand side; the other entries keep the constant box."""
     from wbc.formulations.velocity_kernel import (NONFINITE_RHS, KernelBox, TickBuffers, kinematic_pack,
-                                                  kinematic_tick_packed, rows_pack)
+                                                  kinematic_tick_packed, kinematic_views, rows_pack, task_rows)
 
     rng = np.random.default_rng(40 + seed)
     nv, nq, dt = 14, 15, 0.002
-    fb, ib, x = kinematic_pack(nv, 6, 0, 0)
-    x["A"][:] = rng.standard_normal((6, nv))
-    x["A"][:, :6] += 3 * np.eye(6)
-    sfb, sib, rows = rows_pack(2, nv, np.zeros(0, np.int64))
-    rows["J"][:], rows["rowp"][:] = rng.standard_normal((2, nv)), 1.0
+    fb, ib = kinematic_pack(nv, 6, 0, 0)
+    x = kinematic_views.py_func(fb, ib)[0]
+    x.A[:] = rng.standard_normal((6, nv))
+    x.A[:, :6] += 3 * np.eye(6)
+    sfb, sib = rows_pack(2, nv, np.zeros(0, np.int64))
+    rows = task_rows.py_func(sfb, sib)
+    rows.J[:], rows.rowp[:] = rng.standard_normal((2, nv)), 1.0
     const = np.array([np.r_[np.full(6, -np.inf), -rng.uniform(0.5, 2, nv - 6)],
                       np.r_[np.full(6, np.inf), rng.uniform(0.5, 2, nv - 6)]])
     idx_v = np.sort(rng.choice(np.arange(6, nv), 5, replace=False))
@@ -375,11 +380,11 @@ def test_tick_kernel_writes_the_box_from_the_constant_box_and_the_position_limit
     lb[idx_v] = np.minimum(np.maximum(lo, const[0, idx_v]), const[1, idx_v])
     ub[idx_v] = np.maximum(np.minimum(hi, const[1, idx_v]), const[0, idx_v])
     for b_value in (0.0, np.nan):
-        x["lb"][:], x["ub"][:], x["b"][:] = 9.0, 9.0, b_value
+        x.lb[:], x.ub[:], x.b[:] = 9.0, 9.0, b_value
         code, _ = kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(nv - 6, np.int8)), np.zeros(nv), 0.0,
                                         1e-6, np.empty(nv), dt, 1e-6, 200, q, KernelBox(idx, limits, const))
         assert (code == NONFINITE_RHS) == np.isnan(b_value)
-        assert np.array_equal(x["lb"], lb) and np.array_equal(x["ub"], ub)
+        assert np.array_equal(x.lb, lb) and np.array_equal(x.ub, ub)
 
 
 def test_compiled_tick_frees_what_numba_allocates():

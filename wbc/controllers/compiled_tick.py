@@ -25,7 +25,7 @@ from wbc.exceptions import InvalidInputError, SolverError
 from wbc.controllers.output_guard import command_fault
 from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within_box, command_within_rows,
                                               contact_drift, contact_pair_drift, kinematic_finish_packed,
-                                              kinematic_reduced_packed, kinematic_tick_packed)
+                                              kinematic_reduced_packed, kinematic_tick_packed, kinematic_views)
 from wbc.solvers import DaqpBackend, FastBackend
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
@@ -100,8 +100,7 @@ class CompiledTick:
             self._eq_rows = saved[2]
 
     def _prepare_fused(self, config: Configuration, dt: float) -> None:
-        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts),
-        kept where :meth:`_fused_plan` finds it; the working-set hand-over is left to the tick."""
+        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return
         plan = self._kept_fused_plan()
@@ -114,26 +113,14 @@ class CompiledTick:
                 and q.flags.writeable:
             soft, backend = self._soft, self.backend
             pgain = 0.0 if soft.posture is None else soft.posture.gain
-            args = (self._tick_buffers(plan), soft.no_diff, pgain, self.damping, np.empty(self.nv), float(dt),
-                    backend.tolerance, backend.max_iter, q, plan.box)
+            args = (TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states), soft.no_diff, pgain, self.damping,
+                    np.empty(self.nv), float(dt), backend.tolerance, backend.max_iter, q, plan.box)
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
 
-    def _tick_buffers(self, plan: FusedPlan) -> TickBuffers:
-        """The plan's :class:`~wbc.formulations.velocity_kernel.TickBuffers`: the QP's and the task rows' packed
-        arrays of the current layouts and the plan's working sets (made once per plan, again if a layout's arrays
-        were replaced)."""
-        fb, ib, _ = self._qp_pack
-        soft = self._soft
-        bufs = plan.buffers
-        if bufs is None or bufs.fb is not fb or bufs.sfb is not soft.fb:
-            bufs = plan.buffers = TickBuffers(fb, ib, soft.fb, soft.ib, plan.states)
-        return bufs
-
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
-        """The compiled tick's plan for the current constraint and task layouts (built once per layout, kept
-        with it), or None when the problem is outside what it covers: strict levels, a backend other than
-        :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or velocity target other than one plain
-        :class:`~wbc.tasks.PostureTask`, a contact of a subclass with rows of its own."""
+        """The compiled tick's plan for the current layouts, or None when the problem is outside what it covers:
+        strict levels, a backend other than :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or
+        velocity target other than one plain :class:`~wbc.tasks.PostureTask`, a contact of a subclass."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
         if not self._layout_ok:
@@ -154,48 +141,36 @@ class CompiledTick:
         return None
 
     def _kept_fused_plan(self) -> FusedPlan:
-        """The :class:`FusedPlan` kept for the current layouts, built (:meth:`_build_fused_plan`) when there is
-        none (at most 16 kept)."""
+        """The :class:`FusedPlan` kept for the current layouts (at most 16), built when there is none (``supported``
+        False when the compiled tick does not cover them, :meth:`_fused_plan`)."""
         key = (self._layout_key, tuple(map(id, self._soft_tasks)), id(self.backend))
         plan = self._fused_plans.get(key)
-        if plan is None or plan.layout_key != self._layout_key or plan.soft_tasks is not self._soft_tasks:
-            plan = self._fused_plans[key] = self._build_fused_plan()
-            while len(self._fused_plans) > 16:
-                self._fused_plans.pop(next(iter(self._fused_plans)))
-        return plan
-
-    def _build_fused_plan(self) -> FusedPlan:
-        """A new :class:`FusedPlan` for the current layouts (``supported`` False when the compiled tick does not
-        cover them, :meth:`_fused_plan`)."""
-        plan = FusedPlan()
-        plan.layout_key = self._layout_key
-        plan.soft_tasks = self._soft_tasks
-        plan.backend = self.backend
+        if plan is not None and plan.layout_key == self._layout_key and plan.soft_tasks is self._soft_tasks:
+            return plan
+        plan = self._fused_plans[key] = FusedPlan()
+        while len(self._fused_plans) > 16:
+            self._fused_plans.pop(next(iter(self._fused_plans)))
+        plan.layout_key, plan.soft_tasks, plan.backend = self._layout_key, self._soft_tasks, self.backend
         soft = self._soft
-        if soft.own or any(not plain for *_, plain in soft.rows):
-            return plan  # a task with its own cost (other than one posture task) or velocity target
-        if any(type(c) is not ContactConstraint for c in self._contacts):
-            return plan  # a contact with rows of its own
+        if soft.own or any(not plain for *_, plain in soft.rows) or any(
+                type(c) is not ContactConstraint for c in self._contacts):
+            return plan  # a task with its own cost (but one posture task) or velocity target; a contact's own rows
         nv = self.nv
         nr = nv - 6 if self._eliminating_row >= 0 else nv
         # the joint working set (kept across support switches: _fused_plan) then the rows', one array for the kernel
         plan.states = np.zeros(nr + self._C.shape[0], np.int8)
         plan.state, plan.rstate = plan.states[:nr], plan.states[nr:]
-        plan.vdt = self._qp_pack[2]["vdt"]
+        plan.vdt = kinematic_views.py_func(*self._qp_pack)[2][:nv]
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
         plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
-        plan.rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
-        plan.box = None  # the kernel's box arguments (_kernel_box), on the first tick
         plan.supported = True
         return plan
 
     def _fused_tick(self, plan: FusedPlan, config: Configuration, dt: float, t0: float) -> TickResult | None:
-        """One tick through the compiled solver (:func:`wbc.formulations.velocity_kernel.kinematic_solve`): the QP
-        assembled by :meth:`assemble` — the same buffers the general path solves — with the floating base eliminated and
-        solved exactly. Returns None when the solver does not end at a KKT point within tolerance, when the equality
-        rows are rank deficient, or when a contact drifts above ``contact_correction`` / ``sole_drift_tolerance``: the
-        caller then solves the tick by the general path (DAQP fallback, correction, trust region, diagnosis)."""
+        """One compiled tick (module docstring) on the buffers :meth:`assemble` writes. Returns None when no solver
+        ends at a KKT point within tolerance, the equality rows are rank deficient, or a contact drifts above
+        ``contact_correction`` / ``sole_drift_tolerance``: the general path then solves the tick."""
         if self._eq_rows is not None and self._eq_rows.size != self._A.shape[0]:
             return None  # dependent equality rows (known since the last rank computation): the general path
         model = self.robot.model
@@ -214,10 +189,11 @@ class CompiledTick:
         backend = self.backend
         tol = backend.tolerance
         budget = self.tick_budget
-        # one compiled call: the cost (form_qp); the finite check of the cost and contact targets (NaN and inf
-        # propagate into their sums; else the general path meets them and fails the tick); the solve; the output
-        # guard's compiled screens (v finite, inside the assembled box and inequality rows to the tolerance)
-        args = (self._tick_buffers(plan), self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
+        bufs, soft = plan.buffers, self._soft
+        if bufs is None or bufs.fb is not self._qp_pack[0] or bufs.sfb is not soft.fb:  # made again for new arrays
+            bufs = plan.buffers = TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states)
+        # one compiled call: the cost, its finite check and b's, the solve, the output guard's screens
+        args = (bufs, self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
                 budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
@@ -285,19 +261,16 @@ class CompiledTick:
         return result
 
     def _fused_rescue(self, plan: FusedPlan, v: np.ndarray, dt: float) -> int:
-        """The compiled solver gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision
-        rows of the thighs, or its iteration cap): that same QP
-        (:func:`wbc.formulations.velocity_kernel.kinematic_reduced_packed`) is solved by DAQP, whose dual active set
-        handles dependent constraints, and the tick completed from its solution
-        (:func:`wbc.formulations.velocity_kernel.kinematic_finish_packed`: base velocity, every original row checked).
-        The kernel's next tick is warm-started from DAQP's working set (its nonzero multipliers). Returns 1 on
-        success, else the kernel's exit code (the general path then solves the tick)."""
+        """The kernel gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision rows of
+        the thighs, or its iteration cap): DAQP, whose dual active set handles dependent constraints, solves that QP
+        and the tick is completed from its answer; the kernel's next tick is warm-started from DAQP's working set.
+        Returns 1 on success, else the kernel's exit code (the general path then solves the tick)."""
         backend = self.backend
         rescue = plan.rescue
         if rescue is None:
             rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
             rescue.work = self._work
-        fb, ib, _ = self._qp_pack
+        fb, ib = self._qp_pack
         H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(fb, ib)
         try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
             x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
@@ -320,14 +293,14 @@ class CompiledTick:
 
 
 class FusedPlan:
-    """What the compiled tick (:meth:`KinematicController._fused_tick`) keeps for one constraint layout and one
-    list of soft tasks beyond the assembled QP's buffers: the solver's working sets (warm start), the contacts'
-    log buffer and the DAQP rescue backend. ``states`` (nr + p,) int8: the working sets of the nr reduced variables
-    (``state``, a view) and of the p inequality rows (``rstate``, a view), one array for the kernel
-    (:func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`; −1 / 0 / 1: at its lower bound / free / at
-    its upper bound)."""
+    """What the compiled tick keeps for one constraint layout and one list of soft tasks beyond the QP's buffers:
+    ``states`` (nr + p,) int8, the working sets of the nr reduced variables (``state``) and the p inequality rows
+    (``rstate``) (−1 / 0 / 1: at the lower bound / free / at the upper bound), the contacts' log buffer, the DAQP
+    rescue backend."""
 
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
-    buffers = None  # its TickBuffers (CompiledTick._tick_buffers)
+    buffers = None  # its TickBuffers (made on the first tick)
     drift_kernel = None  # contact_pair_drift, likewise
+    rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
+    box = None  # the kernel's box arguments (_kernel_box), made on the first tick

@@ -13,10 +13,9 @@ from wbc.solvers.hierarchy import band_rows, independent_rows, solve_lexicograph
 from wbc.solvers.qp_data import QPData
 
 
-#: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``), each started only while the
-#: tick's budget lasts: first the two dual active-set methods (Goldfarb–Idnani's quadprog, DAQP one-shot), a few
-#: hundred µs each on a kinematic QP; ProxQP last (its iterations on an infeasible problem take tens of ms, but it
-#: solves the semidefinite levels of a hierarchy that the others refuse)
+#: independent solvers confirming a failed QP inside a tick (``QPBackend.independent``) while the tick's budget
+#: lasts: the dual active-set methods first (quadprog, DAQP), ProxQP last (tens of ms on an infeasible problem, but
+#: it solves the semidefinite levels of a hierarchy that the others refuse)
 CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
 
 
@@ -93,9 +92,6 @@ class GeneralRoute:
         next ticks follow the rule of a cut cascade (``WEIGHTED_TICKS``, ``TickBudget.cascade_fits``)."""
         if not self._level_order or self._weighted_tick:
             return
-        # a strict controller's first tick at a 2 ms budget (cap 8, LAYOUT_WORK 4, reserve 6) solved its cascade
-        # (3 counted), had its contact correction cut, its command drifted and the weighted form answered after it:
-        # 12 counted solves, 2.1 x its budget on replay (kinematic fuzz seed 8126 episode 32 tick 0); skipped, 9
         runs = 2 if self.contact_correction > 0 and self._contacts else 1
         least = runs * len(self._level_order) * (1.0 + self.LEVEL_WORK)
         if self.tick_budget.cascade_may_start(len(self._level_order), self.LEVEL_WORK, runs):

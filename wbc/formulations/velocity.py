@@ -32,8 +32,8 @@ from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityCo
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
-from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, rows_pack,
-                                              weighted_rows)
+from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, kinematic_views,
+                                              rows_pack, task_rows, weighted_rows)
 from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
@@ -58,10 +58,10 @@ def row_blocks(constraints) -> tuple[list, int]:
 
 
 class VelocityQP:
-    """The kinematic QP of the module docstring: its row layout and buffers, and their assembly. The controller
+    """The kinematic QP of the module docstring: its row layouts and buffers (per constraint list and per soft-task
+    list, each cached) and their assembly (:meth:`assemble`). The controller
     (:class:`wbc.controllers.kinematic.KinematicController`, which derives from it) owns the task and constraint
-    lists, the robot and ``damping``; this class lays out the rows per constraint list (``_build_layout``) and per
-    soft-task list (``_build_soft_layout``), each cached, and writes the QP at each tick (:meth:`assemble`)."""
+    lists, the robot and ``damping``."""
 
     #: counted solves added to a tick that builds a new row layout: the build and the tick's first solves on fresh
     #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)
@@ -103,8 +103,7 @@ class VelocityQP:
             self._box_sel.append((c, slice(int(idx[0]), int(idx[0]) + idx.size) if contiguous else idx))
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
-        self._contact_rows = np.zeros(0, dtype=int)  # equality rows of the contacts (set below)
-        self._const_prefix: int | None = None  # number of leading constant boxes, cached by _intersect_boxes
+        self._const_prefix = None  # number of leading constant boxes, cached by _intersect_boxes
         self._eq_blocks, n_eq = row_blocks(eq)
         contact_ids = set(map(id, self._contacts))
         self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
@@ -114,7 +113,7 @@ class VelocityQP:
         relax = set(map(id, self._relaxable))  # their row blocks, one list (boxes: re-intersected without them)
         self._relaxable_blocks = [blk for blk in (*self._eq_blocks, *self._in_blocks) if id(blk[0]) in relax]
         # the compiled solver eliminates the floating base (a free flyer at v[0:6] no box bounds) by the first
-        # contact's 6 rows (kinematic_solve)
+        # contact's rows
         model = self.robot.model
         free_flyer = model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" and \
             model.joints[1].idx_v == 0
@@ -123,10 +122,8 @@ class VelocityQP:
         self._eliminating_row = first[0] if first and free_flyer and not base_bounded else -1
         # the QP's buffers, packed with the compiled solver's workspace: every route reads them
         self._qp_pack = kinematic_pack(self.nv, n_eq, n_in, self._eliminating_row)
-        views = self._qp_pack[2]
-        self._H, self._g, self._A, self._b = views["H"], views["g"], views["A"], views["b"]
-        self._C, self._l, self._u, self._lb, self._ub = views["C"], views["l"], views["u"], views["lb"], views["ub"]
-        self._box_rows = views["box"]  # (lb, ub)
+        qp, self._box_rows, *_ = kinematic_views.py_func(*self._qp_pack)  # numpy views; _box_rows: (lb, ub)
+        self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub = qp
         # each contact's rows written in place (views of A, b), and its factor dt − 1/K ((1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
@@ -145,12 +142,8 @@ class VelocityQP:
         self._layout_ok = True
 
     def _build_soft_layout(self) -> None:
-        """Stacked rows of the soft tasks, gathered by :meth:`assemble` and turned into the cost by one compiled
-        call (:func:`wbc.formulations.velocity_kernel.form_qp`): the Jacobians J, the errors e and, per row, gain K,
-        weight w and feed-forward ė* (v* = ė* − K e; a task with its own velocity target writes v* as e with K = −1, ė*
-        = 0), and one plain :class:`~wbc.tasks.PostureTask` as the diagonal term of ``form_qp``; the other tasks with
-        their own cost (``Task.add_cost``) add it after. Redone when ``tasks`` changes; kept per task list (the same
-        task objects in the same order and sizes) so that a swing task that comes back reuses its layout."""
+        """The soft tasks' stacked rows (:func:`stack_rows`), redone when ``tasks`` changes and kept per task list
+        (the same task objects in the same order and sizes): a swing task that comes back reuses its layout."""
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
         if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
@@ -165,18 +158,12 @@ class VelocityQP:
     def assemble(self, config: Configuration, dt: float) -> QPData:
         """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
         route solves. Returns :class:`~wbc.solvers.qp_data.QPData` (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)):
-        views of the controller's buffers, overwritten at the next call. The task rows are gathered into stacked
-        buffers (``compute_into``) and the cost formed by :func:`wbc.formulations.velocity_kernel.form_qp`; each
-        constraint writes its rows in place (:meth:`~wbc.constraints.base.Constraint.write`); the box is the
-        intersection of the bound constraints' own bounds (``_intersect_boxes``).
-        """
+        views of the controller's buffers, overwritten at the next call."""
         return QPData(*self._assemble(config, dt, True))
 
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
-        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the caller: the posture's q ⊖ q* and gain
-        are kept in ``_posture_diff``, ``_posture_gain`` for :func:`~wbc.formulations.velocity_kernel.form_qp` (the
-        compiled tick forms the cost inside :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed`); with
-        ``boxes`` False, lb and ub are left to the caller too (the compiled tick's box, :meth:`_kernel_box`)."""
+        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the compiled tick (the posture's q ⊖ q*
+        and gain kept in ``_posture_diff``, ``_posture_gain``), with ``boxes`` False lb and ub too."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
@@ -232,9 +219,8 @@ class VelocityQP:
 
     def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
         """The box argument of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
-        layout: KernelBox(idx, limits, constant box (2, nv)) when the boxes are constant ones followed by one
-        :class:`~wbc.constraints.JointPositionLimit` (the kernel then writes lb, ub as :meth:`_intersect_boxes`
-        does), else empty arrays (lb, ub assembled here)."""
+        layout: its constant boxes and one :class:`~wbc.constraints.JointPositionLimit` after them, else
+        ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
         if self._const_prefix is None:
             self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
         rest = self._box_sel[self._const_prefix:]
@@ -289,10 +275,10 @@ class VelocityQP:
 
 
 def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
-    """Stacked-row buffers of ``tasks`` (``KinematicController._build_soft_layout``). ``own_costs``: one plain
+    """Stacked-row buffers of ``tasks`` (:class:`SoftRows`). ``own_costs`` (the soft level): one plain
     :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.formulations.velocity_kernel.form_qp` and
-    the tasks with their own ``add_cost`` are listed apart (the soft level); else every task is a stack of rows (a
-    strict level)."""
+    the tasks with their own ``add_cost`` (added to H, g after it) are listed apart; else (a strict level) every task
+    is a stack of rows. A task with its own velocity target writes v* as e with K = −1, ė* = 0."""
     soft = SoftRows()
     soft.tasks = list(tasks)
     dense, soft.own, soft.posture = [], [], None
@@ -306,10 +292,8 @@ def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
         else:
             soft.own.append(task)
     prow = np.zeros(0, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
-    # J, e, rowp (gain, weight, feed-forward of each stacked row), the posture's weights and indices: packed into two
-    # arrays, what the compiled tick reads (kinematic_tick_packed)
-    soft.fb, soft.ib, views = rows_pack(row, nv, prow)
-    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = views["J"], views["e"], views["rowp"], views["pw"], views["prow"]
+    soft.fb, soft.ib = rows_pack(row, nv, prow)  # what the compiled tick reads (kinematic_tick_packed)
+    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = task_rows.py_func(soft.fb, soft.ib)  # numpy views
     soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
     soft.wr = np.zeros(row)
     soft.rows = []
@@ -350,9 +334,8 @@ def gather_rows(soft: SoftRows, config: Configuration) -> None:
 
 
 class SoftRows:
-    """The stacked rows of one task list (:func:`stack_rows`: the soft level, or a strict level): ``J`` (mt, nv),
-    ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward per row, ``wJ``, ``wr``: a strict level's rows with the
-    weights applied; ``rows``, per task with the generic cost,
-    (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task taken as the
-    diagonal of :func:`wbc.formulations.velocity_kernel.form_qp` (``posture``, its weights ``pw`` and velocity indices
-    ``prow``); the tasks with their own cost (``own``)."""
+    """The stacked rows of one task list (:func:`stack_rows`): ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt) =
+    gain, weight, feed-forward per row; ``wJ``, ``wr``: a strict level's rows with the weights applied; ``rows``, per
+    task with the generic cost, (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the
+    posture task (``posture``, its weights ``pw`` and velocity indices ``prow``); the tasks with their own cost
+    (``own``)."""

@@ -1,30 +1,25 @@
-"""Compiled (numba) kernels of the kinematic (velocity-level) QP of :mod:`wbc.formulations.velocity`.
+"""Compiled (numba) kernels of the kinematic QP of :mod:`wbc.formulations.velocity`.
 
-:func:`form_qp` forms the kinematic controller's cost (H, g) from its stacked task rows (posture diagonal, damping):
-the one cost formation of every kinematic route; :func:`weighted_rows` gives a strict level's weighted rows by the
-same formula. :func:`kinematic_solve` is the compiled solver of the assembled kinematic QP
-(H, g, A, b, C, l, u, lb, ub): the floating base eliminated through a contact's 6 equality rows (H, g and the other
-rows reduced by the substitution), the exact active-set solvers of :mod:`wbc.solvers.box_eq` and
-:mod:`wbc.solvers.active_set` on the reduced problem, the residuals of the original rows checked;
-:func:`kinematic_pack` packs the QP's buffers and its workspace into two arrays for :func:`kinematic_solve_packed`.
-When its solver gives up, the reduced problem (:func:`kinematic_reduced_packed`) can be solved by another solver and
-the solve completed from that answer (:func:`kinematic_finish_packed`). :func:`contact_drift` (with two
-contacts' errors: :func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact
-frame ends against where its row sent it.
-
-The kernels are compiled on first use and cached on disk (``cache=True``); :func:`load_kinematic_kernels` compiles (or
-loads) them eagerly, once per process, and returns the seconds it took (at construction of a
-:class:`~wbc.controllers.kinematic.KinematicController`, never inside a tick).
+:func:`form_qp` forms its cost (H, g) from the stacked task rows (:func:`weighted_rows`: a strict level's rows by
+the same formula). :func:`kinematic_solve` solves the assembled QP exactly: the floating base eliminated through a
+contact's 6 equality rows, the active-set solvers of :mod:`wbc.solvers.box_eq` and :mod:`wbc.solvers.active_set` on
+the reduced problem, the residuals of the original rows checked. :func:`kinematic_tick_packed` is the compiled tick
+in one call, on the arrays of :func:`kinematic_pack` and :func:`rows_pack` (two arrays each: every array argument
+costs a call from Python its unboxing); when its solver gives up, the reduced QP (:func:`kinematic_reduced_packed`)
+can be solved by another solver and the tick completed (:func:`kinematic_finish_packed`). :func:`contact_drift`
+(:func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends
+against where its row sent it. :func:`load_kinematic_kernels` compiles (or loads from the on-disk cache) the kernels
+once per process, at a controller's construction.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from collections import namedtuple
 
 import numba as nb
 import numpy as np
+from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
@@ -36,13 +31,12 @@ from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
            "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
-           "kinematic_reduced_packed", "kinematic_solve", "kinematic_solve_packed", "kinematic_tick_packed",
-           "kinematic_workspace", "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack",
+           "kinematic_reduced_packed", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
+           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows",
            "TaskRows", "TickBuffers", "translation_gap", "weighted_rows"]
 
 #: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
-#: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays (views of :func:`kinematic_pack`'s
-#: float array in the compiled tick)
+#: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays
 KinematicQP = namedtuple("KinematicQP", "H g A b C l u lb ub")
 
 #: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
@@ -54,17 +48,15 @@ TaskRows = namedtuple("TaskRows", "J e rowp pw prow")
 #: constant bounds' intersection (lb, ub as rows); ``const`` (0, 0): the box is left as assembled
 KernelBox = namedtuple("KernelBox", "idx limits const")
 
-#: the buffers of one compiled tick (:func:`kinematic_tick_packed`): ``fb``/``ib`` of :func:`kinematic_pack` (the
-#: QP and the solver's workspace), ``sfb``/``sib`` of :func:`rows_pack` (the task rows) and ``states`` (nr + p,) int8,
-#: the working sets of the nr reduced variables and the p inequality rows
+#: the buffers of :func:`kinematic_tick_packed`: ``fb``/``ib`` of :func:`kinematic_pack`, ``sfb``/``sib`` of
+#: :func:`rows_pack` and ``states`` (nr + p,) int8, the working sets of the nr reduced variables and p inequality rows
 TickBuffers = namedtuple("TickBuffers", "fb ib sfb sib states")
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _eliminate_base(A, b, er, nr, Eb, Tc):
-    """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the 6 equality rows E = A[er:er + 6] (E_b their
-    first 6 columns, the floating base; E_j the others): Gaussian elimination with partial pivoting. Returns False
-    when E_b is singular (a pivot ≤ 1e-12 × its largest entry)."""
+    """Tc[:, :nr] = T = E_b⁻¹ E_j and Tc[:, nr] = c = E_b⁻¹ b_E for the rows E = A[er:er + 6] (E_b: the base's
+    columns) by Gaussian elimination with partial pivoting; False when a pivot ≤ 1e-12 × E_b's largest entry."""
     scale = 0.0
     for i in range(6):
         for j in range(6):
@@ -135,9 +127,9 @@ def _weighted_row(Js, es, rowp, k, row):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_rows(Js, es, rowp, out_J, out_r):
-    """The stacked task rows with their weights applied, as a strict priority level of the kinematic QP takes them
-    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k with v*_k = ff_k −
-    K_k e_k (compiled; the formula of :func:`form_qp`, whose cost is Σ_k ‖out_J[k] v − out_r[k]‖²).
+    """The stacked task rows with their weights applied, as a strict priority level takes them
+    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k, v*_k = ff_k −
+    K_k e_k (the formula of :func:`form_qp`).
 
     Args:
         Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
@@ -172,8 +164,7 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _form_qp_into(rows, diff, pgain, damping, H, g, row):
-    """:func:`form_qp` on the task rows ``rows`` (:class:`TaskRows`) with its row buffer row (nv,) given (scratch:
-    no allocation)."""
+    """:func:`form_qp` on ``rows`` (:class:`TaskRows`) with its scratch row (nv,) given."""
     Js, es, rowp, pw, prow = rows
     n = H.shape[0]
     g[:] = 0.0
@@ -211,15 +202,6 @@ def _form_qp_into(rows, diff, pgain, damping, H, g, row):
     return check
 
 
-def kinematic_workspace(nv: int, n_eq: int, n_in: int, eliminate: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Float and integer workspaces of :func:`kinematic_solve` for nv velocities, ``n_eq`` equality and ``n_in``
-    inequality rows, with or without the floating-base elimination. The float one starts with v·dt (nv,)."""
-    nr = nv - 6 if eliminate else nv
-    mr = n_eq - 6 if eliminate else n_eq
-    size = _views_size(nv, nr, mr, n_in) + nv + qp_ws_float_size(nr, mr, n_in)
-    return np.zeros(size), np.zeros(max(nr, qp_ws_int_size(nr, mr)), np.int64)
-
-
 @nb.njit(cache=True, nogil=True)
 def _views_size(n, nr, mr, p):
     """Length of the part of the float workspace that :func:`_solve_views` lays out."""
@@ -235,43 +217,38 @@ def _scratch_views(ws, n, nr, mr, p):
     return ws[o:o + n], ws[o + n:]
 
 
+@register_jitable(inline="always")  # inlined in numba IR: no call, no reference counting of its views
+def _rows(buf, o, k, n):
+    """buf[o:o + k n] as k rows of n (a view), and the offset after them (plain Python outside numba)."""
+    return buf[o:o + k * n].reshape((k, n)), o + k * n
+
+
+@register_jitable(inline="always")
+def _vec(buf, o, n):
+    """buf[o:o + n] (a view) and the offset after it."""
+    return buf[o:o + n], o + n
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(ws, n, nr, mr, p):
-    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (layout of :func:`kinematic_workspace`) for n
+    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for n
     velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
-    o = n
-    HL = ws[o:o + 2 * nr * nr].reshape((2, nr, nr))
-    H, L = HL[0], HL[1]
-    o += 2 * nr * nr
-    vec = ws[o:o + 7 * nr].reshape((7, nr))  # g, lbr, ubr, row, x, z, t: consecutive (nr,) vectors
-    g, lbr, ubr, row, x, z, t = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6]
-    o += 7 * nr
-    Tc = ws[o:o + 6 * (nr + 1)].reshape((6, nr + 1))
-    o += 6 * (nr + 1)
-    Eb = ws[o:o + 36].reshape((6, 6))
-    o += 36
-    V = ws[o:o + 6 * nr].reshape((6, nr))
-    o += 6 * nr
-    wb = ws[o:o + 6]
-    o += 6
-    Cr = ws[o:o + p * nr].reshape((p, nr))
-    o += p * nr
-    rows = ws[o:o + 3 * p].reshape((3, p))  # lr, ur, mu
-    lr, ur, mu = rows[0], rows[1], rows[2]
-    o += 3 * p
-    Ar = ws[o:o + mr * nr].reshape((mr, nr))
-    o += mr * nr
-    eqs = ws[o:o + 2 * mr].reshape((2, mr))  # br, nu
-    br, nu = eqs[0], eqs[1]
-    o += 2 * mr
-    Y = ws[o:o + mr * nr].reshape((mr, nr))  # Y, S, rhs: solve_box_eq_ws (no rows of C)
-    o += mr * nr
-    S = ws[o:o + mr * mr].reshape((mr, mr))
-    o += mr * mr
-    rhs = ws[o:o + mr]
-    o += mr
-    eqres = ws[o:o + 1]
-    return (H, L, g, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs, eqres)
+    H, o = _rows(ws, n, nr, nr)
+    L, o = _rows(ws, o, nr, nr)
+    vec, o = _rows(ws, o, 7, nr)  # g, lbr, ubr, row, x, z, t
+    Tc, o = _rows(ws, o, 6, nr + 1)
+    Eb, o = _rows(ws, o, 6, 6)
+    V, o = _rows(ws, o, 6, nr)
+    wb, o = _vec(ws, o, 6)
+    Cr, o = _rows(ws, o, p, nr)
+    rows, o = _rows(ws, o, 3, p)  # lr, ur, mu
+    Ar, o = _rows(ws, o, mr, nr)
+    eqs, o = _rows(ws, o, 2, mr)  # br, nu
+    Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    S, o = _rows(ws, o, mr, mr)
+    rhs, o = _vec(ws, o, mr)
+    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb, Cr, rows[0], rows[1],
+            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs, ws[o:o + 1])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -333,8 +310,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
     g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
     unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
-    :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; every KKT condition of the reduced problem holds at
-    exit, and the residuals of all rows of the original one are checked against ``tolerance``.
+    :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; every KKT condition of
+    the reduced problem holds at exit, and the residuals of all rows of the original one are checked against
+    ``tolerance``.
 
     Args:
         qp: a :class:`KinematicQP`, H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,),
@@ -342,7 +320,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         er: first row of the eliminating block, or −1 (no elimination). dt (s): the workspace receives v·dt.
         tolerance: largest residual accepted. max_iter: working-set iterations.
         state (nr,) int8, rstate (p,) int8: working sets (warm start, in/out). ws, iws: workspaces from
-            :func:`kinematic_workspace`; on success ws[:nv] = v·dt. v (nv,): out.
+            :func:`kinematic_views`; on success ws[:nv] = v·dt. v (nv,): out.
 
     Returns:
         working-set iterations (≥ 1), or a negative exit code (the caller solves the tick by the general path).
@@ -431,95 +409,45 @@ NONFINITE_RHS = -1000
 #: the ``box`` of :func:`kinematic_tick_packed` when it leaves the box as assembled
 NO_KERNEL_BOX = KernelBox(np.zeros((2, 0), np.int64), np.zeros((3, 0)), np.zeros((0, 0)))
 
-#: fields of the header of :func:`kinematic_solve_packed`'s integer array (offsets into its float array ``fb``)
-_PACK_FIELDS = ("nv", "neq", "p", "er", "H", "g", "A", "b", "C", "l", "u", "lb", "ub", "ws", "iws")
-
-
-def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """The two arrays :func:`kinematic_solve_packed` reads (one float, one int64) for a kinematic QP of nv
-    velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base through the equality
-    rows from ``er`` (−1: none), and named views of their parts: the QP's buffers ``H`` (nv, nv), ``g`` (nv,), ``A``
-    (n_eq, nv), ``b``, ``C`` (n_in, nv), ``l``, ``u``, ``lb``, ``ub`` (nv,) — the arrays the controller assembles
-    into, so that the compiled solver reads them where they were written — ``box`` (2, nv): lb and ub as the rows of
-    one array, and ``vdt`` (nv,): v·dt after a solve."""
-    ws, iws = kinematic_workspace(nv, n_eq, n_in, er >= 0)
-    shapes = {"H": (nv, nv), "g": (nv,), "A": (n_eq, nv), "b": (n_eq,), "C": (n_in, nv), "l": (n_in,),
-              "u": (n_in,), "lb": (nv,), "ub": (nv,), "ws": (ws.size,)}
-    head = len(_PACK_FIELDS)
-    offsets, o = {}, 0
-    for name, shape in shapes.items():
-        offsets[name] = o
-        o += math.prod(shape)
-    fb = np.zeros(o)
-    ib = np.zeros(head + iws.size, np.int64)
+def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, np.ndarray]:
+    """The float and int64 arrays that the compiled tick reads (their parts: :func:`kinematic_views`) for a
+    kinematic QP of nv velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base
+    through the equality rows from ``er`` (−1: none): the QP's buffers and :func:`kinematic_solve`'s workspaces."""
+    nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
+    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + nv
+                  + qp_ws_float_size(nr, mr, n_in))
+    ib = np.zeros(4 + max(nr, qp_ws_int_size(nr, mr)), np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
-    for i, name in enumerate(_PACK_FIELDS[4:-1], start=4):
-        ib[i] = offsets[name]
-    ib[head - 1] = head
-    views = {name: fb[offsets[name]:offsets[name] + math.prod(shape)].reshape(shape)
-             for name, shape in shapes.items()}
-    views["vdt"] = views["ws"][:nv]
-    views["box"] = fb[offsets["lb"]:offsets["lb"] + 2 * nv].reshape((2, nv))  # lb and ub, consecutive
-    return fb, ib, views
+    return fb, ib
 
 
 @nb.njit(cache=True, nogil=True)
-def _unpack(fb, ib):
-    """Views of the arrays :func:`kinematic_pack` packed into ``fb``/``ib``: (the QP (:class:`KinematicQP`), ws, iws,
-    er)."""
-    nv, neq, p, er = ib[0], ib[1], ib[2], ib[3]
-    o = ib[4:]
-    H = fb[o[0]:o[0] + nv * nv].reshape((nv, nv))
-    g = fb[o[1]:o[1] + nv]
-    A = fb[o[2]:o[2] + neq * nv].reshape((neq, nv))
-    b = fb[o[3]:o[3] + neq]
-    C = fb[o[4]:o[4] + p * nv].reshape((p, nv))
-    l = fb[o[5]:o[5] + p]
-    u = fb[o[6]:o[6] + p]
-    lb = fb[o[7]:o[7] + nv]
-    ub = fb[o[8]:o[8] + nv]
-    ws = fb[o[9]:]
-    iws = ib[o[10]:]
-    return KinematicQP(H, g, A, b, C, l, u, lb, ub), ws, iws, er
+def kinematic_views(fb, ib):
+    """Views of the arrays of :func:`kinematic_pack`: (the QP (:class:`KinematicQP`), box (2, nv) = its lb and ub
+    as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
+    From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
+    nv, neq, p = ib[0], ib[1], ib[2]
+    H, o = _rows(fb, 0, nv, nv)
+    g, o = _vec(fb, o, nv)
+    A, o = _rows(fb, o, neq, nv)
+    b, o = _vec(fb, o, neq)
+    C, o = _rows(fb, o, p, nv)
+    l, o = _vec(fb, o, p)
+    u, o = _vec(fb, o, p)
+    box, o = _rows(fb, o, 2, nv)
+    return KinematicQP(H, g, A, b, C, l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_solve_packed(fb, ib, state, rstate, v, dt, tolerance, max_iter):
-    """:func:`kinematic_solve` on the QP packed into ``fb`` (float) and ``ib`` (int64) by :func:`kinematic_pack`:
-    8 arguments instead of 19 arrays and numbers (each array argument costs the call ≈ 50 ns to type and
-    unbox). Same returns."""
-    qp, ws, iws, er = _unpack(fb, ib)
-    return kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v)
-
-
-def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """The two arrays of stacked task rows that :func:`kinematic_tick_packed` reads, allocated zeroed, and named views
-    of their parts (the caller writes the rows into the views each tick).
-
-    Args:
-        mt: number of stacked task rows (≥ 0). nv: number of velocity variables.
-        prow (kp,): velocity indices of a posture diagonal (integers in [0, nv); kp = 0: no posture).
-
-    Returns:
-        (sfb, sib, views): ``sfb`` (mt·nv + 4·mt + kp,) float64 and ``sib`` (3 + kp,) int64 = [mt, nv, kp, prow…];
-        ``views`` maps the arguments of :func:`form_qp` to views of them (units as there): ``J`` (mt, nv) the task
-        Jacobians, ``e`` (mt,) the task errors, ``rowp`` (3, mt) gain K (1/s), weight w and feed-forward of each
-        row, ``pw`` (kp,) the posture weights (zeros) and ``prow`` (kp,) int64 (a copy of ``prow``).
-    """
-    kp = int(np.size(prow))
-    sfb = np.zeros(mt * nv + 4 * mt + kp)
-    sib = np.zeros(3 + kp, np.int64)
-    sib[:3] = (mt, nv, kp)
-    sib[3:] = prow
-    o = mt * nv
-    views = {"J": sfb[:o].reshape((mt, nv)), "e": sfb[o:o + mt], "rowp": sfb[o + mt:o + 4 * mt].reshape((3, mt)),
-             "pw": sfb[o + 4 * mt:], "prow": sib[3:]}
-    return sfb, sib, views
+def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The float and int64 arrays of mt stacked task rows of nv velocities that the compiled tick reads (their
+    parts: :func:`task_rows`), zeroed but for ``prow`` (kp,), the velocity indices of a posture diagonal."""
+    prow = np.asarray(prow, np.int64)
+    return np.zeros(mt * nv + 4 * mt + prow.size), np.concatenate((np.array([mt, nv, prow.size], np.int64), prow))
 
 
 @nb.njit(cache=True, nogil=True)
-def _unpack_rows(sfb, sib):
-    """Views of the arrays :func:`rows_pack` packed into ``sfb``/``sib``: a :class:`TaskRows`."""
+def task_rows(sfb, sib):
+    """Views of the arrays of :func:`rows_pack`: a :class:`TaskRows`."""
     mt, nv, kp = sib[0], sib[1], sib[2]
     o = mt * nv
     return TaskRows(sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
@@ -528,23 +456,19 @@ def _unpack_rows(sfb, sib):
 
 @nb.njit(cache=True, fastmath=FASTMATH, **NO_NRT)  # GIL kept: releasing it costs more per call than a thread could gain
 def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter, q, box):
-    """The compiled tick in one call on the buffers ``bufs`` (:class:`TickBuffers`): the box, when ``box.const`` is
-    (2, nv) (``box``: a :class:`KernelBox`): lb, ub ← its rows (the intersection of the constant bounds), then
-    :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box.idx``, ``box.limits``, dt) of a joint
-    position limit (``box.const`` (0, 0): lb, ub as assembled); :func:`form_qp` into the packed H, g (the task rows
-    packed into ``bufs.sfb``/``bufs.sib`` by :func:`rows_pack`; ``diff`` … ``damping`` as there); its check and
-    :func:`all_finite` on the equality right-hand side b; :func:`kinematic_solve_packed` on ``bufs.fb``/``bufs.ib``;
-    the output guard's screens :func:`command_within_box` and :func:`command_within_rows` on v — the same numbers as
-    those calls made one after the other. ``bufs.states`` (nr + p,) int8: the working sets ``state`` (nr,) and
-    ``rstate`` (p,) of :func:`kinematic_solve_packed` one after the other (nr = nv − 6 with the floating-base
-    elimination, else nv; p inequality rows).
+    """The compiled tick in one call on ``bufs`` (:class:`TickBuffers`), the same numbers as these calls one after
+    the other: when ``box`` (:class:`KernelBox`) has ``const`` (2, nv), lb, ub ← its rows, then
+    :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box.idx``, ``box.limits``, dt) (``const``
+    (0, 0): lb, ub as assembled); :func:`form_qp` into H, g (``diff`` … ``damping`` as there); its check and
+    :func:`all_finite` on b; :func:`kinematic_solve` (working sets ``bufs.states`` = state (nr,) then rstate (p,));
+    :func:`command_within_box` and :func:`command_within_rows` on v.
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
-        ``states`` untouched), else the return of :func:`kinematic_solve_packed`; guard = True when code ≥ 1 and v
-        passed both screens.
+        ``states`` untouched), else the return of :func:`kinematic_solve`; guard = True when code ≥ 1 and v passed
+        both screens.
     """
-    qp, ws, iws, er = _unpack(bufs.fb, bufs.ib)
+    qp, _, ws, iws, er = kinematic_views(bufs.fb, bufs.ib)
     H, g, A, b, C, l, u, lb, ub = qp
     const_box = box.const
     if const_box.shape[0] == 2:
@@ -554,7 +478,7 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
         intersect_position_bounds(q, box.idx, box.limits, dt, lb, ub)
     n0 = 6 if er >= 0 else 0
     row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
-    check = _form_qp_into(_unpack_rows(bufs.sfb, bufs.sib), diff, pgain, damping, H, g, row)
+    check = _form_qp_into(task_rows(bufs.sfb, bufs.sib), diff, pgain, damping, H, g, row)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
     nr = H.shape[0] - n0
@@ -568,12 +492,11 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
 
 @nb.njit(cache=True, nogil=True)
 def kinematic_reduced_packed(fb, ib):
-    """The reduced QP formed by the last :func:`kinematic_solve_packed` call on these arrays (valid after any return
-    but ``NOT_REDUCIBLE``), as views into ``fb``: a :class:`KinematicQP` (H (nr, nr), g (nr,), A (mr, nr), b (mr,),
-    C (p, nr), l (p,), u (p,), lb (nr,), ub (nr,)) of min ½xᵀHx + gᵀx s.t. Ax = b, l ≤ Cx ≤ u, lb ≤ x ≤ ub in the
-    joint velocities x (nr = nv − 6, mr = n_eq − 6 with the floating-base elimination; nv and n_eq without). Its solution x, given to
+    """The reduced QP of the last :func:`kinematic_solve` on these arrays (valid after any return but
+    ``NOT_REDUCIBLE``), views into ``fb``: a :class:`KinematicQP` in the joint velocities x (nr = nv − 6 variables
+    and mr = n_eq − 6 equality rows with the floating-base elimination, else nv and n_eq). Its solution x, given to
     :func:`kinematic_finish_packed`, completes the tick."""
-    qp, ws, iws, er = _unpack(fb, ib)
+    qp, _, ws, iws, er = kinematic_views(fb, ib)
     n0 = 6 if er >= 0 else 0
     nr = qp.A.shape[1] - n0
     (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
@@ -583,11 +506,10 @@ def kinematic_reduced_packed(fb, ib):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
-    """Complete a :func:`kinematic_solve_packed` call whose kernel did not solve the reduced QP, from a solution x
-    (nr,) of :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; base velocity recovered
-    through the eliminating rows) and the check of every original row against ``tolerance`` (True: passed, and
-    the float workspace then holds v·dt as after a successful solve)."""
-    qp, ws, iws, er = _unpack(fb, ib)
+    """Complete a :func:`kinematic_solve` whose solver gave up, from a solution x (nr,) of
+    :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; the base velocity recovered through the
+    eliminating rows) and the check of every original row against ``tolerance`` (True: passed, ws[:nv] = v·dt)."""
+    qp, _, ws, iws, er = kinematic_views(fb, ib)
     n0 = 6 if er >= 0 else 0
     nr = qp.A.shape[1] - n0
     Tc = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])[9]
@@ -700,15 +622,15 @@ def command_within_rows(v, C, l, u, tolerance):
 @once_per_process
 def load_kinematic_parts() -> float:
     """Compile (or load from the on-disk cache), once per process, the kinematic kernels that link no solver kernel
-    (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`): the cost formation, the reduced QP and finish of the
-    general route, the contact drifts, the output guard's screens, and :func:`wbc.solvers.linalg.clip_box_into` that
-    the controller's bound assembly calls; returns the seconds taken (later calls: None at once). ``wbc compile``
-    runs it in a process of its own while the solver kernels compile (:data:`wbc.cli.kernels.PARTS`)."""
+    (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`), and :func:`wbc.solvers.linalg.clip_box_into`;
+    returns the seconds taken (later calls: None at once). ``wbc compile`` runs it in a process of its own while the
+    solver kernels compile (:data:`wbc.cli.kernels.PARTS`)."""
     t0 = time.perf_counter()
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
-    fb, ib, views = kinematic_pack(7, 6, 0, 0)
+    fb, ib = kinematic_pack(7, 6, 0, 0)
+    qp = kinematic_views.py_func(fb, ib)[0]
     form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
-            1e-6, views["H"], views["g"])
+            1e-6, qp.H, qp.g)
     weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
@@ -719,8 +641,8 @@ def load_kinematic_parts() -> float:
     contact_drift(np.zeros((1, 6)), np.zeros(6), np.zeros(1, np.int64), np.zeros(1), 0.1)
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
     contact_pair_drift(frame, frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
-    all_finite(views["b"])
-    command_within_box(np.zeros(7), views["lb"], views["ub"], 1e-6)
+    all_finite(qp.b)
+    command_within_box(np.zeros(7), qp.lb, qp.ub, 1e-6)
     command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
@@ -729,19 +651,20 @@ def load_kinematic_parts() -> float:
 
 @once_per_process
 def load_kinematic_kernels() -> float:
-    """Compile (or load from the on-disk cache), once per process, the kinematic kernels: those of
-    :func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed` (which links
-    :func:`kinematic_solve` and the solver kernels); returns the seconds taken (later calls: None at once).
-    :func:`kinematic_solve_packed`, which no controller calls, is compiled on its first call."""
+    """:func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed` (which links
+    :func:`kinematic_solve` and the solver kernels), compiled or loaded once per process; returns the seconds taken
+    (later calls: None at once)."""
     t0 = time.perf_counter()
     load_kinematic_parts()
     # the kinematic controller's compiled tick (a 7-velocity QP whose base is eliminated through 6 rows)
-    fb, ib, views = kinematic_pack(7, 6, 0, 0)
-    views["A"][:, :6] = np.eye(6)
-    views["lb"][:6], views["ub"][:6] = -np.inf, np.inf
-    views["lb"][6], views["ub"][6] = -1.0, 1.0
-    sfb, sib, rows = rows_pack(1, 7, np.zeros(0, np.int64))
-    rows["J"][0, 6], rows["rowp"][:] = 1.0, 1.0
+    fb, ib = kinematic_pack(7, 6, 0, 0)
+    qp = kinematic_views.py_func(fb, ib)[0]
+    qp.A[:, :6] = np.eye(6)
+    qp.lb[:6], qp.ub[:6] = -np.inf, np.inf
+    qp.lb[6], qp.ub[6] = -1.0, 1.0
+    sfb, sib = rows_pack(1, 7, np.zeros(0, np.int64))
+    rows = task_rows.py_func(sfb, sib)
+    rows.J[0, 6], rows.rowp[:] = 1.0, 1.0
     kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(1, np.int8)), np.zeros(7), 0.0, 1e-6, np.empty(7),
                           0.002, 1e-6, 10, np.zeros(0), NO_KERNEL_BOX)
     return time.perf_counter() - t0
