@@ -270,23 +270,26 @@ def test_a_first_strict_tick_whose_cascade_cannot_fit_starts_on_the_weighted_for
 
 @pytest.mark.parametrize("seed, episode, cut", [
     (8130, 5, "priority levels after the first 1 of 3 (their weighted form's command)"),
-    (8118, 32, "the cascade's contact correction after 0 of 3 re-solves")])
+    (8118, 32, "the cascade's contact correction after 0 of 3 re-solves"),
+    (8153, 66, "priority levels after the first 1 of 3 (their weighted form's command)")])
 def test_a_cut_cascades_weighted_form_counts_its_own_work_for_the_contact_correction(robots, seed, episode, cut):
-    """Fuzz seeds 8130 episode 5 and 8118 episode 32 (Talos, a far hand target, strict levels, dt 2 ms: a cap of 8
-    counted solves); ticks 1–25 are answered by the weighted form (a cascade cut on tick 0, ``WEIGHTED_TICKS``) and
-    on tick 26 the cascade starts again:
+    """Fuzz seeds 8130 episode 5, 8118 episode 32 and 8153 episode 66 (Talos, a far hand target, strict levels, dt 2
+    ms: a cap of 8 counted solves); ticks 1–25 are answered by the weighted form (a cascade cut on tick 0,
+    ``WEIGHTED_TICKS``) and on tick 26 the cascade starts again:
 
     * 8130/5: its first level spends 5.5 counted solves, the cascade is cut (7 counted) and the weighted form
       answers (1 more);
     * 8118/32: its 2 levels end (7 counted), its contact correction does not fit beside the weighted form's reserve
-      (7 + 6 + 7 > 14), its command drifts, and the weighted form answers (``_weighted_answer``, 1 solve).
+      (7 + 6 + 7 > 14), its command drifts, and the weighted form answers (``_weighted_answer``, 1 solve);
+    * 8153/66: its first level and a contact correction run (4 counted), the correction's cascade is cut (10) and
+      the weighted form answers (1 more): the tick's largest re-solve so far was the cascade's (4).
 
-    In both, the weighted form's contact correction was refused: the stage rule took the cascade's 7 solves as the
-    work of one re-solve (8 + 7 > 14), though a re-solve of that tick is the weighted form's alone (1 solve); the
-    tick failed on a sole drifting 0.0501 / 0.113 mm (> 0.05) and took the safe command. Such drift failures were
-    189 of the 216 strict-level failures of the 10⁶-tick kinematic fuzz at 67ee7a6, most of them on tick 26. Now the
-    correction runs: the tick is ok, its soles within the drift bound (forward kinematics, own Data) and its counted
-    solves within 1.75 × 8 + 1."""
+    In each, the weighted form's contact correction was refused: the stage rule took the cascade's solves as the
+    work of one re-solve (8 + 7, 11 + 4 > 14), though a re-solve of that tick is the weighted form's alone (1
+    solve); the tick failed on a sole drifting 0.0501 / 0.113 / 0.113 mm (> 0.05) and took the safe command. Such
+    drift failures were 189 of the 216 strict-level failures of the 10⁶-tick kinematic fuzz at 67ee7a6, most of them
+    on tick 26. Now the correction runs: the tick is ok, its soles within the drift bound (forward kinematics, own
+    Data) and its counted solves within 1.75 × 8 + 1."""
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, kind, strict, dt) == ("talos", "far", True, DT)
     _run_to(ctrl, config, 26)

@@ -28,12 +28,14 @@ class GeneralRoute:
         args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         solves = self._work.solves
         t = self._work.seconds() if self.clock_guard else 0.0
+        self._weighted_from = None
         try:
             return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
         finally:
             # the counted work of the largest re-solve so far: the stages after it start only when one more fits
-            # (after a cascade the budget cut, a re-solve is its weighted form's alone: counted from its start)
-            solves = max(solves, self._weighted_from)
+            # (after a cascade the budget cut, the tick's re-solves are its weighted form's: counted from its start)
+            if self._weighted_from is not None:
+                solves, t = self._weighted_from
             self.tick_budget.resolve_work = max(self.tick_budget.resolve_work, self._work.solves - solves)
             if self.clock_guard:
                 self.tick_budget.resolve_cost = max(self.tick_budget.resolve_cost, self._work.seconds() - t)
@@ -129,7 +131,8 @@ class GeneralRoute:
                 # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
                 # re-solves instead of the last solved level's command (which ignores the levels below it)
                 self._work.reserve = 0.0
-                self._weighted_from = self._work.solves
+                self.tick_budget.resolve_work = self.tick_budget.resolve_cost = 0.0  # the cascade's re-solves: none
+                self._weighted_from = (self._work.solves, self._work.seconds() if self.clock_guard else 0.0)
                 try:
                     qp = self._weighted_levels(config, H, g)
                     v = self._solve_flat(*qp, A, b, C, l, u, lb, ub)

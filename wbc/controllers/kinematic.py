@@ -161,7 +161,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
         self._weighted_left = 0  # clock guard: ticks still answered by the weighted form of the strict levels
         self._weighted_tick = False  # the current tick solves the strict levels as one weighted QP
-        self._weighted_from = 0.0  # counted solves when a cut cascade's weighted form started (GeneralRoute)
+        self._weighted_from: tuple | None = None  # (counted solves, CPU s) when a cut cascade's weighted form started
         self._weighted_qp: tuple | None = None  # (H, g) of that QP at the current tick
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
@@ -414,7 +414,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick = weighted_start
         self._weighted_qp = None
-        self._weighted_from = 0.0
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
