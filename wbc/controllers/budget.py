@@ -35,7 +35,9 @@ class TickBudget:
         seconds: the current tick's budget (s of CPU time; NaN before the first tick).
         stage_factor: a solved tick starts no stage past stage_factor × cap counted solves.
         stage_deadline: with the clock guard, a timed stage ends by stage_deadline budgets of CPU time.
-        resolve_work, level_work: counted solves of the tick's largest re-solve of its QP / strict level so far.
+        first_work, resolve_work, level_work: counted solves of the tick's first solve of its QP, of its largest
+            re-solve and of its largest strict level so far; ``resolves``: solves of its QP so far (from the start
+            of the form that answers it: a cut cascade's weighted form restarts them).
         resolve_cost, level_cost, check_cost: CPU time (s) of the tick's longest re-solve, strict level and check
             of a held safe command so far (clock guard).
         safe_cost: CPU time (s) of the longest solve of the safe command in this tick, else the last tick's;
@@ -56,7 +58,8 @@ class TickBudget:
         self.resolve_cost = self.level_cost = self.check_cost = self.safe_cost = 0.0
         self.safe_fresh = False
         self.safe_stage_cost = self.level_mark = self.level_count = self.resolve_work = self.level_work = 0.0
-        self.iteration_cost = 0.0
+        self.iteration_cost = self.first_work = 0.0
+        self.resolves = 0
 
     def start(self, seconds: float, solve_cost: float, clock_weight: float) -> None:
         """Start a tick of ``seconds`` of budget: cap ⌊seconds / solve_cost⌋ counted solves (``math.inf`` when
@@ -67,24 +70,27 @@ class TickBudget:
         clock = seconds / (clock_weight * max(cap, 1)) if self.clock_guard and math.isfinite(cap) else math.inf
         self.work.reset(cap, clock)
         self.resolve_cost = self.level_cost = self.check_cost = 0.0
-        self.resolve_work = self.level_work = 0.0
-        self.safe_fresh = False
+        self.first_work = self.resolve_work = self.level_work = 0.0
+        self.safe_fresh, self.resolves = False, 0
 
-    def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None) -> bool:
+    def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None,
+                  work: float | None = None) -> bool:
         """May a stage start now: ``"retry"``, an optional stage of a failed tick (confirmation, relaxation,
         diagnosis), when the count is below one cap, also after one more re-solve at the counted work of the tick's
         largest re-solve so far; ``"stage"``, a further stage of a solved tick (a strict level, a contact correction,
-        a trust region), when it ends within ``stage_factor`` caps at that work; with ``cost`` (s of CPU time), also
-        :meth:`fits` (cost, deadline).
+        a trust region), when it ends within ``stage_factor`` caps at that work (the larger of ``first_work`` and
+        ``resolve_work``, or ``work`` counted solves when given); with ``cost`` (s of CPU time), also :meth:`fits`
+        (cost, deadline).
 
         Raises:
             InvalidInputError: ``stage`` not one of :data:`STAGES`.
         """
+        ahead = max(self.first_work, self.resolve_work) if work is None else work
         work = self.work
         if stage == "retry":
-            late = work.spent() or work.spent(1.0, self.resolve_work)
+            late = work.spent() or work.spent(1.0, ahead)
         elif stage == "stage":
-            late = work.spent(self.stage_factor, self.resolve_work)
+            late = work.spent(self.stage_factor, ahead)
         else:
             raise InvalidInputError(f"stage must be one of {', '.join(STAGES)}, got {stage!r}")
         return not late and (cost is None or self.fits(cost, deadline))

@@ -187,7 +187,10 @@ class ContactHold:
         recorded as ``stage`` when not), at the CPU time of the longest such re-solve so far."""
         budget = self.tick_budget
         cost = budget.safe_estimate() if solve == self._solve_constraints_only else budget.resolve_cost
-        if budget.may_start("retry" if bounded else "stage", cost):
+        work = None  # the larger of the tick's first solve and largest re-solve (TickBudget.may_start)
+        if self._weighted_tick or not self._level_order:  # one QP: a re-solve starts from the tick's answer
+            work = budget.resolve_work if budget.resolves > 1 else min(budget.first_work, self.FIRST_RESOLVE_WORK)
+        if budget.may_start("retry" if bounded else "stage", cost, work=work):
             return True
         if not bounded:
             self._cut.append(stage)

@@ -36,9 +36,14 @@ class GeneralRoute:
             # (after a cascade the budget cut, the tick's re-solves are its weighted form's: counted from its start)
             if self._weighted_from is not None:
                 solves, t = self._weighted_from
-            self.tick_budget.resolve_work = max(self.tick_budget.resolve_work, self._work.solves - solves)
+            budget = self.tick_budget
+            if budget.resolves:
+                budget.resolve_work = max(budget.resolve_work, self._work.solves - solves)
+            else:
+                budget.first_work = self._work.solves - solves
+            budget.resolves += 1
             if self.clock_guard:
-                self.tick_budget.resolve_cost = max(self.tick_budget.resolve_cost, self._work.seconds() - t)
+                budget.resolve_cost = max(budget.resolve_cost, self._work.seconds() - t)
 
     def _solve_flat(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         fresh = self._eq_rows is None
@@ -131,7 +136,9 @@ class GeneralRoute:
                 # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
                 # re-solves instead of the last solved level's command (which ignores the levels below it)
                 self._work.reserve = 0.0
-                self.tick_budget.resolve_work = self.tick_budget.resolve_cost = 0.0  # the cascade's re-solves: none
+                budget = self.tick_budget  # the tick's re-solves from here: the weighted form's
+                budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
+                budget.resolves = 0
                 self._weighted_from = (self._work.solves, self._work.seconds() if self.clock_guard else 0.0)
                 try:
                     qp = self._weighted_levels(config, H, g)

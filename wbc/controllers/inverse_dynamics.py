@@ -17,7 +17,8 @@ constraints in ``IDCommand.conflicts``, named by :meth:`InverseDynamicsQP.diagno
    drives still clamp): ``relaxed`` True, τ clipped to the (scaled) URDF limits;
 2. that fails too → the previous tick's solved command for one tick (``fallback:hold``; kept while the failures are
    the budget's: a cut full QP whose hard set has a point, which is commanded, ``fallback:feasible``, when there is
-   no command to hold); else contact-consistent gravity compensation with joint damping (``fallback:gravity``):
+   no command to hold, and held on the next tick if that one fails too); else contact-consistent gravity
+   compensation with joint damping (``fallback:gravity``):
 
        W = argmin ‖W‖  s.t.  (J_cᵀ)_u W = h_u   (least norm over the active sole wrenches, LOCAL, 6 per sole)
        τ = h_a − (J_cᵀ)_a W − K_d v_a,    K_d,i = 0.5 I_eff,i / dt,  I_eff,i = 1 / (M⁻¹)_ii   (clipped to ±τ_max)

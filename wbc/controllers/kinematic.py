@@ -107,6 +107,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     WEIGHTED_RESERVE = 0.75
     #: counted solves per level of the strict cascade for the work around its QP (``solve_lexicographic``)
     LEVEL_WORK = 0.5
+    #: counted solves expected of a contact hold's first re-solve of one QP (its later ones: the largest so far)
+    FIRST_RESOLVE_WORK = 1.0
     #: m: a safe command is taken only when it leaves each contact frame within this of where the run of failed
     #: ticks began (or no farther than it is)
     SAFE_COMMAND_RADIUS = 5e-4

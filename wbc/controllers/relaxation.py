@@ -215,7 +215,9 @@ class Relaxation:
             return None
         self._work.reserve = 0.0
         # its re-solves are the weighted form's (one QP), not the cascade's: their work and time counted from here
-        self.tick_budget.resolve_work = self.tick_budget.resolve_cost = 0.0
+        budget = self.tick_budget
+        budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
+        budget.resolves = 0
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
         try:
