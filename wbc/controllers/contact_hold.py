@@ -71,32 +71,21 @@ class DriftMeter:
         return far, drifts, worst
 
     def held_drift(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
-                   anchors: list[pin.SE3], beta: float) -> float:
-        """Largest drift (m) of a contact frame over one tick of dt (s) with v (nv,) from where its correction
-        towards its anchor (world placement) scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖,
-        e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: the frame's displacement)."""
+                   anchors: list[pin.SE3], beta: float, radius: float) -> tuple[float, bool]:
+        """(largest drift (m), inside) of the contact frames over one tick of dt (s) with v (nv,): a frame's drift from
+        where its correction towards its anchor (world placement) scaled by β sends it, ‖t(exp(e⁺)) −
+        t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: its displacement);
+        inside: each frame ends within ``radius`` (m) of its anchor, or no farther from it than at ``config``."""
         model, data = self.model, self.data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        worst = 0.0
+        worst, inside = 0.0, True
         for c, anchor in zip(contacts, anchors):
-            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            after, before = pin.updateFramePlacement(model, data, c.frame_id), config.frame_placement(c.frame_id)
+            e1, e0 = pin.log6(anchor.actInv(after)).vector, pin.log6(anchor.actInv(before)).vector
             worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
-        return worst
-
-    def within_radius(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
-                      anchors: list[pin.SE3], radius: float) -> bool:
-        """True when one tick of dt (s) with v (nv,) leaves every contact frame within ``radius`` (m) of its anchor
-        (world placement), or no farther from it than the frame is at ``config``."""
-        model, data = self.model, self.data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        for c, anchor in zip(contacts, anchors):
-            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
-                                         - anchor.translation))
-            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
-            if after > max(radius, before):
-                return False
-        return True
+            inside = inside and not float(np.linalg.norm(after.translation - anchor.translation)) > max(
+                radius, float(np.linalg.norm(before.translation - anchor.translation)))
+        return worst, inside
 
     def forget(self) -> None:
         """Drop the remembered answer (:meth:`measure`)."""
@@ -104,26 +93,21 @@ class DriftMeter:
 
 
 class ContactRange:
-    """The range of the contact rows J_c (rows of the contacts × nv): their thin SVD, kept while J_c is unchanged
+    """The range of the contact rows J_c (rows of the contacts × nv), from their thin SVD, kept while J_c is unchanged
     (a failed tick asks it several times)."""
 
     def __init__(self):
-        self._kept: tuple | None = None  # (J_c, U, S) of the last svd()
+        self._kept: tuple | None = None  # (J_c, U, S) of the last SVD
 
-    def svd(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(U (rows × k), S (k,), descending) of the thin SVD of ``Jc``, k = min(rows, nv); read-only arrays."""
+    def basis(self, Jc: np.ndarray, rank_rtol: float) -> np.ndarray:
+        """Orthonormal basis U_r (rows × rank, read-only) of the range of ``Jc``: its numerical rank counts the singular
+        values > ``rank_rtol`` · max(the largest, 1) (rank = rows: every contact row independent)."""
         kept = self._kept
         if kept is None or kept[0].shape != Jc.shape or not np.array_equal(kept[0], Jc):
             U, S, _ = np.linalg.svd(Jc, full_matrices=False)
             U.setflags(write=False)
-            S.setflags(write=False)
             kept = self._kept = (Jc, U, S)
-        return kept[1], kept[2]
-
-    def basis(self, Jc: np.ndarray, rank_rtol: float) -> np.ndarray:
-        """Orthonormal basis U_r (rows × rank) of the range of ``Jc``: its numerical rank counts the singular values
-        > ``rank_rtol`` · max(the largest, 1) (rank = rows: every contact row independent)."""
-        U, S = self.svd(Jc)
+        U, S = kept[1], kept[2]
         rank = int(np.sum(S > rank_rtol * max(S[0], 1.0))) if S.size else 0
         return U[:, :rank]
 

@@ -123,10 +123,9 @@ class Recovery:
                             break
                         work.add(self.CHECK_WORK)
                         t = work.seconds()
-                        d = 0.0 if tol is None else self.drift_meter.held_drift(config, v_h, dt, self._contacts,
-                                                                                anchors, beta)
-                        held = (tol is None or d <= tol) and self.drift_meter.within_radius(
-                            config, v_h, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS)
+                        d, inside = self.drift_meter.held_drift(config, v_h, dt, self._contacts, anchors, beta,
+                                                                self.SAFE_COMMAND_RADIUS)
+                        held = (tol is None or d <= tol) and inside
                         budget.check_cost = max(budget.check_cost, work.seconds() - t)
                         if held:
                             v, fallback = v_h, "contacts_held"
@@ -190,7 +189,7 @@ class Recovery:
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
         """(v, 'constraints_only') when step 2's command (module docstring) is taken, else (zeros, 'hold'): its contacts
         held like an ok tick's (correction, trust region, bounded by the tick's count), taken when within the
-        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
+        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.held_drift`). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
@@ -198,8 +197,8 @@ class Recovery:
             solve = self._solve_constraints_only
             v_c = self._held_command(config, dt, solve(config), [], solve, bounded=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
-                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
-                    self.drift_meter.within_radius(config, v_c, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS):
+                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and self.drift_meter.held_drift(
+                    config, v_c, dt, self._contacts, anchors, 0.0, self.SAFE_COMMAND_RADIUS)[1]:
                 v, fallback = v_c, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
             pass
