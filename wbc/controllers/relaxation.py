@@ -139,36 +139,29 @@ class Relaxation:
             buffers holding α's problem again.
         """
         low, high, lb0, ub0 = self._return_bounds
+        rows = self._contact_rows
+        b0 = self._b[rows].copy()
+        # the last step, α = 0 with the contacts held where they are (J_c v = 0), as the ladder's: the drift from where
+        # the full correction would send a frame is then K dt e plus second order in v dt
+        steps = [(a, False) for a in _RETURN_RATE_SCALES if a < alpha] + ([(0.0, True)] if rows.size else [])
         with self._unconfirmed():
-            for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
+            for a, held in steps:
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
                 self._lb[low], self._ub[high] = a * lb0, a * ub0
+                if held:
+                    self._b[rows] = 0.0
                 v = self._try_solve(config)
                 if v is None:
                     continue
-                r = self._held_command(config, dt, v, relaxed)
+                r = self._hold_contacts(config, dt, v, relaxed) if held else self._held_command(config, dt, v, relaxed)
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
+                    if held:
+                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
                     return r, a
-            if self._contact_rows.size and self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
-                # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
-                # from where the full correction would send a frame is then K dt e plus second order in v dt
-                b0 = self._b[self._contact_rows].copy()
-                self._lb[low], self._ub[high] = 0.0, 0.0
-                self._b[self._contact_rows] = 0.0
-                try:
-                    r = self._hold_contacts(config, dt, self._solve_assembled(config), relaxed)
-                except SolverError:
-                    r = None
-                if r is not None and r.ok:
-                    relaxed[-1] = "joint_position_limit return rate × 0"
-                    relaxed.append("contact drift correction × 0 (J_c v = 0)")
-                    return r, 0.0
-                self._b[self._contact_rows] = b0
-            elif self._contact_rows.size:
-                self._cut.append(f"slower returns below × {alpha:g}")
+            self._b[rows] = b0
             self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
             return result, alpha
 
