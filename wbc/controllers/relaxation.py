@@ -173,10 +173,11 @@ class Relaxation:
             return None
 
     @contextmanager
-    def _unconfirmed(self):
-        """The backends of the tick's QP (a list), unconfirmed inside the block (a failed trial only sends a ladder to
-        its next step); their ``independent`` restored and ``cold_retry`` back on at its end."""
-        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+    def _unconfirmed(self, backends=None):
+        """``backends`` (default: those of the tick's QP; None entries left out) as a list, unconfirmed inside the block
+        (a failed trial only sends a ladder to its next step); their ``independent`` restored and ``cold_retry`` back
+        on at its end."""
+        backends = [b for b in backends or (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
         try:
             for b in backends:
