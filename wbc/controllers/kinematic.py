@@ -140,7 +140,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         #: the tick's counted work, clock guard and stage costs (:class:`wbc.controllers.budget.TickBudget`)
         self.tick_budget = TickBudget()
         self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
-        self._configure_budget()
         self.budget = budget
         self._cut: list[str] = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         #: second-order contact corrections (re-solves) done by the last tick.
@@ -216,10 +215,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`) and share its work with every QP
-        backend."""
-        self._configure_budget()
-        self.tick_budget.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers: class
+        or instance attributes, they may change between ticks) and share its work with every QP backend."""
+        tb = self.tick_budget
+        tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
+        tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
         stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
                  None if plan is None else plan.rescue)
@@ -233,13 +233,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     b.work = work
                     b.independent = CONFIRM_ORDER
             self._work_stamp = stamp
-
-    def _configure_budget(self) -> None:
-        """The controller's numbers into its :class:`~wbc.controllers.budget.TickBudget` (they may be changed
-        between ticks: attributes of the class or of the instance)."""
-        tb = self.tick_budget
-        tb.clock_guard = self.clock_guard
-        tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -371,14 +364,15 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
             result = self._held_answer(config, dt, v, relaxed, return_rate, held)  # contacts held, output guarded
         except InvalidInputError:
-            self._in_solve = False
-            self.drift_meter.forget()
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             self._work.reserve = 0.0
             result = self._recover(config, dt, exc)  # → the safe command
+        finally:
+            self._in_solve = False
+            self.drift_meter.forget()
         return self._close_tick(result, weighted_start, t0, t1, dt)
 
     def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
@@ -449,8 +443,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     dt: float) -> TickResult:
         """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
         marks, feedback constraints and the failure count."""
-        self._in_solve = False
-        self.drift_meter.forget()
         if self._level_order:
             # a cascade cut by the budget: the next WEIGHTED_TICKS ticks, and until one is cheap enough for the
             # cascade, answer with the weighted form (one QP)
