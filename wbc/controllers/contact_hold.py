@@ -159,32 +159,32 @@ class ContactHold:
         basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
         return None if basis.shape[1] == rows.size else basis
 
-    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
-                      bounded: bool = False) -> TickResult:
-        """v's second-order contact correction (when on) then its trust region (:meth:`_hold_contacts`)."""
-        if self.contact_correction > 0 and self._contacts:
-            v = self._correct_contacts(config, dt, v, solve, bounded)
-        return self._hold_contacts(config, dt, v, relaxed, solve, bounded)
+    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
+                      held: bool = False) -> TickResult:
+        """v's second-order contact correction (when on, and not ``held``: J_c v = 0 asked) then its trust region
+        (:meth:`_hold_contacts`); ``safe``: their re-solves are the safe command's QP's (``_solve_constraints_only``,
+        bounded by the tick's count), else the tick's QP's."""
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v, safe)
+        return self._hold_contacts(config, dt, v, relaxed, safe)
 
-    def _may_resolve(self, solve, bounded: bool, stage: str) -> bool:
-        """May a re-solve by ``solve`` start: a safe command's (``bounded``) as a 'retry', else as a 'stage' (its cut
-        recorded as ``stage`` when not), at the CPU time of the longest such re-solve so far."""
+    def _may_resolve(self, safe: bool, stage: str) -> bool:
+        """May a re-solve start: the safe command's (``safe``) as a 'retry', else as a 'stage' (its cut recorded as
+        ``stage`` when not), at the CPU time of the longest such re-solve so far."""
         budget = self.tick_budget
-        cost = budget.safe_estimate() if solve == self._solve_constraints_only else budget.resolve_cost
+        cost = budget.safe_estimate() if safe else budget.resolve_cost
         work = None  # the larger of the tick's first solve and largest re-solve (TickBudget.may_start)
         if self._weighted_tick or not self._level_order:  # one QP: a re-solve starts from the tick's answer
             work = budget.resolve_work if budget.resolves > 1 else min(budget.first_work, self.FIRST_RESOLVE_WORK)
-        if budget.may_start("retry" if bounded else "stage", cost, work=work):
+        if budget.may_start("retry" if safe else "stage", cost, work=work):
             return True
-        if not bounded:
+        if not safe:
             self._cut.append(stage)
         return False
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
-                          bounded: bool = False) -> np.ndarray:
-        """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
-        re-solves the problem in the buffers (default: the tick's QP)."""
-        solve = solve or self._solve_assembled
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, safe: bool = False) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``; ``safe``: _held_command)."""
+        solve = self._solve_constraints_only if safe else self._solve_assembled
         self.contact_corrections = 0
         worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
@@ -194,7 +194,7 @@ class ContactHold:
         b0 = self._b.copy()
         try:
             for k in range(3):
-                if not self._may_resolve(solve, bounded, f"contact correction after {k} of 3 re-solves"):
+                if not self._may_resolve(safe, f"contact correction after {k} of 3 re-solves"):
                     break  # the best command is kept
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
@@ -220,13 +220,13 @@ class ContactHold:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
-                       bounded: bool = False) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
-        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP). Rank-deficient contact rows
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list,
+                       safe: bool = False) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring; ``safe``:
+        :meth:`_held_command`). Rank-deficient contact rows
         get consistent right-hand sides first (as :meth:`_consistent_contact_rhs`: else their disagreeing corrections
         ask a large v in the nearly singular direction); each region's solution is corrected before it is measured."""
-        solve = solve or self._solve_assembled
+        solve = self._solve_constraints_only if safe else self._solve_assembled
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -241,7 +241,7 @@ class ContactHold:
                 cr = self._contact_rows
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
             for k in range(n_radii):
-                if not self._may_resolve(solve, bounded, f"trust region after {k} of at most {n_radii} radii"):
+                if not self._may_resolve(safe, f"trust region after {k} of at most {n_radii} radii"):
                     break  # the least drifting command is kept
                 if basis is not None and k == 0:
                     radius = math.inf  # first the whole box, with consistent contact rows
@@ -259,7 +259,7 @@ class ContactHold:
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
-                    v_tr = self._correct_contacts(config, dt, v_tr, solve, bounded)
+                    v_tr = self._correct_contacts(config, dt, v_tr, safe)
                 d = last = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d

@@ -215,8 +215,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers: class
-        or instance attributes, they may change between ticks) and share its work with every QP backend."""
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers:
+        class or instance attributes, they may change between ticks) and share its work with every QP backend."""
         tb = self.tick_budget
         tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
         tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
@@ -423,7 +423,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         Raises:
             SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
         """
-        result = self._hold_contacts(config, dt, v, relaxed) if held else self._held_command(config, dt, v, relaxed)
+        result = self._held_command(config, dt, v, relaxed, held=held)
         if not result.ok and not held:
             if return_rate is not None:
                 result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)

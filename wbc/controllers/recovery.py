@@ -189,8 +189,7 @@ class Recovery:
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            solve = self._solve_constraints_only
-            v_c = self._held_command(config, dt, solve(config), [], solve, bounded=True).v
+            v_c = self._held_command(config, dt, self._solve_constraints_only(config), [], safe=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
                     tol is None or self.sole_drift(config, v_c, dt) <= tol) and self.drift_meter.held_drift(
                     config, v_c, dt, self._contacts, anchors, 0.0, self.SAFE_COMMAND_RADIUS)[1]:

@@ -155,7 +155,7 @@ class Relaxation:
                 v = self._try_solve(config)
                 if v is None:
                     continue
-                r = self._hold_contacts(config, dt, v, relaxed) if held else self._held_command(config, dt, v, relaxed)
+                r = self._held_command(config, dt, v, relaxed, held=held)
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
                     if held:
