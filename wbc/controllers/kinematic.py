@@ -362,7 +362,21 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
             except SolverError as first_failure:
                 v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
-            result = self._held_answer(config, dt, v, relaxed, return_rate, held)  # contacts held, output guarded
+            # its contacts held (second-order correction, trust region; slower returns, a cut cascade's weighted form)
+            result = self._held_command(config, dt, v, relaxed, held=held)
+            if not result.ok and not held:
+                if return_rate is not None:
+                    result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+                elif self._cut and self._level_order and not self._weighted_tick:
+                    result = self._weighted_answer(config, dt, relaxed) or result
+            if not result.ok:  # no trust region kept the contacts: the safe command is taken instead
+                raise DriftFailure(result.message)
+            fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
+            if fault:
+                raise SolverError(f"output guard: {fault}")
+            path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                    else TickPath("general", self.backend.name))
+            result.path = path if return_rate is None else replace(path, return_rate=True)
         except InvalidInputError:
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
@@ -414,30 +428,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
         return weighted_start
-
-    def _held_answer(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, return_rate: float | None,
-                     held: bool) -> TickResult:
-        """The solved tick's command with its contacts held (second-order correction, trust region; the weighted
-        form of a cut cascade, slower returns), checked by the output guard and labelled with its route.
-
-        Raises:
-            SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
-        """
-        result = self._held_command(config, dt, v, relaxed, held=held)
-        if not result.ok and not held:
-            if return_rate is not None:
-                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
-            elif self._cut and self._level_order and not self._weighted_tick:
-                result = self._weighted_answer(config, dt, relaxed) or result
-        if result.ok:
-            fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
-            if fault:
-                raise SolverError(f"output guard: {fault}")
-            path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
-                    else TickPath("general", self.backend.name))
-            result.path = path if return_rate is None else replace(path, return_rate=True)
-            return result
-        raise DriftFailure(result.message)  # no trust region kept the contacts: the safe command is taken instead
 
     def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None,
                     dt: float) -> TickResult:
