@@ -102,8 +102,7 @@ class Recovery:
                         try:
                             # β = 0 (v = 0 solves it when the box holds it): its solver's own iteration limit, not the
                             # few iterations a spent count leaves (its solves still counted)
-                            v_h = (self._solve_constraints_only(config) if beta
-                                   else self._solve_uncapped(config, held_first))
+                            v_h = self._solve_constraints_only(config, not beta, held_first)  # (uncapped, held)
                         except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
                             capped = getattr(self._fallback_backend, "iterations_capped", False)
                             tried.append(f"β = {beta:g}: {type(qexc).__name__}"
@@ -156,10 +155,19 @@ class Recovery:
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
-    def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
+    def _solve_constraints_only(self, config: Configuration, uncapped: bool = False, held: bool = False) -> np.ndarray:
         """The weighted soft level under the constraint objects in the buffers (hard tasks left out; nearly dependent
-        rows once more as band rows, as ``_solve_banded``) on the fallback backend; with the clock guard its CPU time
-        is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        rows once more as band rows, as ``_solve_banded``) on the fallback backend; ``uncapped``: its iteration limit
+        not lowered by the tick's spent count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still
+        counted); ``held``: each DAQP call at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
+        load). With the clock guard its CPU time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        cap, backend = self._work.cap, self._fallback_backend
+        held = held and isinstance(backend, DaqpBackend)
+        calls = getattr(backend, "call_iterations", None)
+        if uncapped:
+            self._work.cap = math.inf
+        if held:
+            backend.call_iterations = self.HELD_ITERATIONS
         t = self._work.seconds() if self.clock_guard else 0.0
         try:
             H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
@@ -175,6 +183,9 @@ class Recovery:
                                                                        0.5 * self.dependent_row_tolerance), lb, ub)
             return v_safe
         finally:
+            self._work.cap = cap
+            if held:
+                backend.call_iterations = calls
             if self.clock_guard:
                 spent = self._work.seconds() - t
                 budget = self.tick_budget
@@ -199,24 +210,6 @@ class Recovery:
         if self.clock_guard:
             self.tick_budget.safe_stage_cost = self._work.seconds() - t_stage
         return v, fallback
-
-    def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:
-        """:meth:`_solve_constraints_only` with the iteration limit not lowered by the tick's spent count
-        (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still counted); ``bounded``: each DAQP call of
-        the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any load).
-        Raises SolverError."""
-        cap, self._work.cap = self._work.cap, math.inf
-        backend = self._fallback_backend
-        bounded = bounded and isinstance(backend, DaqpBackend)
-        calls = getattr(backend, "call_iterations", None)
-        if bounded:
-            backend.call_iterations = self.HELD_ITERATIONS
-        try:
-            return self._solve_constraints_only(config)
-        finally:
-            self._work.cap = cap
-            if bounded:
-                backend.call_iterations = calls
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the
