@@ -112,17 +112,11 @@ class Relaxation:
                        result: TickResult) -> tuple[TickResult, float]:
         """After the return-rate ladder kept α but no trust region held the contacts: the smaller scales down to 0,
         each solved and held, while the tick's stages last (the sole-drift bound of an ok tick ranks above the return
-        rate); last α = 0 with J_c v = 0, its drift measured from where the full correction sends each frame.
-
-        Returns:
-            (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
-            buffers holding α's problem again.
-        """
+        rate); last α = 0 with J_c v = 0 (its drift from where the full correction sends a frame: K dt e plus second
+        order in v dt). Returns (the first ok result, its α), else (``result``, ``alpha``), the buffers α's again."""
         low, high, lb0, ub0 = self._return_bounds
         rows = self._contact_rows
         b0 = self._b[rows].copy()
-        # the last step, α = 0 with the contacts held where they are (J_c v = 0), as the ladder's: the drift from where
-        # the full correction would send a frame is then K dt e plus second order in v dt
         steps = [(a, False) for a in _RETURN_RATE_SCALES if a < alpha] + ([(0.0, True)] if rows.size else [])
         with self._unconfirmed():
             for a, held in steps:
@@ -194,10 +188,8 @@ class Relaxation:
         budget.resolves = 0
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
-        try:
-            result = self._held_command(config, dt, self._solve_assembled(config), relaxed)
-        except SolverError:
-            result = None
+        v = self._try_solve(config)
+        result = None if v is None else self._held_command(config, dt, v, relaxed)
         if result is not None and result.ok:
             self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
             return result
