@@ -399,8 +399,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             plan = self._fused_plan(config, dt)
         if plan is None:
             return None
-        if plan.rescue is not None:
-            plan.rescue.work = self._work
         try:
             return self._fused_tick(plan, config, dt, t0)
         except InvalidInputError:
@@ -419,11 +417,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self.backend.count_give_ups = not self._level_order
             self.backend.skip_give_ups = bool(self._level_order)
         self._assembled = False
-        self._in_solve, self._contact_expected = True, None
-        self.drift_meter.forget()
+        self._in_solve, self._contact_expected = True, None  # (the drift meter forgot at the last tick's end)
         weighted_start = bool(self._level_order) and self._weighted_left > 0
-        self._weighted_tick = weighted_start
-        self._weighted_qp = None
+        self._weighted_tick, self._weighted_qp = weighted_start, None
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
