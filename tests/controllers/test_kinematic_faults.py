@@ -1003,7 +1003,7 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
 
 
 def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documented_safe_commands(robots):
-    """The held command of a failed tick past its count (``_solve_uncapped`` at β = 0, bounded: each DAQP call of
+    """The held command of a failed tick past its count (``_solve_constraints_only`` uncapped at β = 0, bounded: each DAQP call of
     the fallback backend at most ``HELD_ITERATIONS`` iterations) run to that limit. Kinematic fuzz seed 100014,
     episode 175, tick 4 (the tick of ``test_a_failed_tick_past_its_count_takes_the_held_command_first``: its held QP
     converges in 15 DAQP iterations, 'contacts_held'), with ``HELD_ITERATIONS`` = 5 on the instance: every DAQP call
@@ -1024,10 +1024,12 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
         assert ctrl.solve(config, dt).ok
         config.update(config.integrate(ctrl.last_result.v, dt))
     ctrl.HELD_ITERATIONS = 5
-    held, safe_calls = [], []  # per _solve_uncapped call: (bounded, QPs solved, DAQP's state after, error)
-    solve_uncapped, safe_constraints_only = ctrl._solve_uncapped, ctrl._safe_constraints_only
+    held, safe_calls = [], []  # per uncapped solve: (bounded, QPs solved, DAQP's state after, error)
+    solve_constraints_only, safe_constraints_only = ctrl._solve_constraints_only, ctrl._safe_constraints_only
 
-    def uncapped_spy(config_, bounded=False):
+    def uncapped_spy(config_, uncapped=False, bounded=False):
+        if not uncapped:
+            return solve_constraints_only(config_, uncapped, bounded)
         backend = ctrl._fallback_backend
         qps, solve = [], backend.solve
 
@@ -1038,7 +1040,7 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
         backend.solve = solve_spy
         error = None
         try:
-            return solve_uncapped(config_, bounded)
+            return solve_constraints_only(config_, uncapped, bounded)
         except Exception as exc:
             error = exc
             raise
@@ -1052,7 +1054,7 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
         safe_calls.append((len(held), out[1]))
         return out
 
-    ctrl._solve_uncapped, ctrl._safe_constraints_only = uncapped_spy, safe_spy
+    ctrl._solve_constraints_only, ctrl._safe_constraints_only = uncapped_spy, safe_spy
     res = ctrl.solve(config, dt)
     print(f"\ntick 4: {res.path}; held solves {[(b, len(q), c, it, e) for b, q, c, it, _, e in held]}; "
           f"constraints_only {safe_calls}; {res.message[-400:]}")

@@ -71,32 +71,21 @@ class DriftMeter:
         return far, drifts, worst
 
     def held_drift(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
-                   anchors: list[pin.SE3], beta: float) -> float:
-        """Largest drift (m) of a contact frame over one tick of dt (s) with v (nv,) from where its correction
-        towards its anchor (world placement) scaled by β sends it: ‖t(exp(e⁺)) − t(exp((1 − β K dt) e))‖,
-        e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: the frame's displacement)."""
+                   anchors: list[pin.SE3], beta: float, radius: float) -> tuple[float, bool]:
+        """(largest drift (m), inside) of the contact frames over one tick of dt (s) with v (nv,): a frame's drift from
+        where its correction towards its anchor (world placement) scaled by β sends it, ‖t(exp(e⁺)) −
+        t(exp((1 − β K dt) e))‖, e = log₆(anchor⁻¹ oMf), e⁺ at pin.integrate(q, v dt) (β = 0: its displacement);
+        inside: each frame ends within ``radius`` (m) of its anchor, or no farther from it than at ``config``."""
         model, data = self.model, self.data
         pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        worst = 0.0
+        worst, inside = 0.0, True
         for c, anchor in zip(contacts, anchors):
-            e1 = pin.log6(anchor.actInv(pin.updateFramePlacement(model, data, c.frame_id))).vector
-            e0 = pin.log6(anchor.actInv(config.frame_placement(c.frame_id))).vector
+            after, before = pin.updateFramePlacement(model, data, c.frame_id), config.frame_placement(c.frame_id)
+            e1, e0 = pin.log6(anchor.actInv(after)).vector, pin.log6(anchor.actInv(before)).vector
             worst = max(worst, translation_gap(e1, 1.0, e0, 1.0 - beta * min(c.gain, 1.0 / dt) * dt))
-        return worst
-
-    def within_radius(self, config: Configuration, v: np.ndarray, dt: float, contacts: list[ContactConstraint],
-                      anchors: list[pin.SE3], radius: float) -> bool:
-        """True when one tick of dt (s) with v (nv,) leaves every contact frame within ``radius`` (m) of its anchor
-        (world placement), or no farther from it than the frame is at ``config``."""
-        model, data = self.model, self.data
-        pin.forwardKinematics(model, data, pin.integrate(model, config.q, v * dt))
-        for c, anchor in zip(contacts, anchors):
-            after = float(np.linalg.norm(pin.updateFramePlacement(model, data, c.frame_id).translation
-                                         - anchor.translation))
-            before = float(np.linalg.norm(config.frame_placement(c.frame_id).translation - anchor.translation))
-            if after > max(radius, before):
-                return False
-        return True
+            inside = inside and not float(np.linalg.norm(after.translation - anchor.translation)) > max(
+                radius, float(np.linalg.norm(before.translation - anchor.translation)))
+        return worst, inside
 
     def forget(self) -> None:
         """Drop the remembered answer (:meth:`measure`)."""
@@ -104,26 +93,21 @@ class DriftMeter:
 
 
 class ContactRange:
-    """The range of the contact rows J_c (rows of the contacts × nv): their thin SVD, kept while J_c is unchanged
+    """The range of the contact rows J_c (rows of the contacts × nv), from their thin SVD, kept while J_c is unchanged
     (a failed tick asks it several times)."""
 
     def __init__(self):
-        self._kept: tuple | None = None  # (J_c, U, S) of the last svd()
+        self._kept: tuple | None = None  # (J_c, U, S) of the last SVD
 
-    def svd(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(U (rows × k), S (k,), descending) of the thin SVD of ``Jc``, k = min(rows, nv); read-only arrays."""
+    def basis(self, Jc: np.ndarray, rank_rtol: float) -> np.ndarray:
+        """Orthonormal basis U_r (rows × rank, read-only) of the range of ``Jc``: its numerical rank counts the singular
+        values > ``rank_rtol`` · max(the largest, 1) (rank = rows: every contact row independent)."""
         kept = self._kept
         if kept is None or kept[0].shape != Jc.shape or not np.array_equal(kept[0], Jc):
             U, S, _ = np.linalg.svd(Jc, full_matrices=False)
             U.setflags(write=False)
-            S.setflags(write=False)
             kept = self._kept = (Jc, U, S)
-        return kept[1], kept[2]
-
-    def basis(self, Jc: np.ndarray, rank_rtol: float) -> np.ndarray:
-        """Orthonormal basis U_r (rows × rank) of the range of ``Jc``: its numerical rank counts the singular values
-        > ``rank_rtol`` · max(the largest, 1) (rank = rows: every contact row independent)."""
-        U, S = self.svd(Jc)
+        U, S = kept[1], kept[2]
         rank = int(np.sum(S > rank_rtol * max(S[0], 1.0))) if S.size else 0
         return U[:, :rank]
 
@@ -175,32 +159,32 @@ class ContactHold:
         basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
         return None if basis.shape[1] == rows.size else basis
 
-    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
-                      bounded: bool = False) -> TickResult:
-        """v's second-order contact correction (when on) then its trust region (:meth:`_hold_contacts`)."""
-        if self.contact_correction > 0 and self._contacts:
-            v = self._correct_contacts(config, dt, v, solve, bounded)
-        return self._hold_contacts(config, dt, v, relaxed, solve, bounded)
+    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
+                      held: bool = False) -> TickResult:
+        """v's second-order contact correction (when on, and not ``held``: J_c v = 0 asked) then its trust region
+        (:meth:`_hold_contacts`); ``safe``: their re-solves are the safe command's QP's (``_solve_constraints_only``,
+        bounded by the tick's count), else the tick's QP's."""
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v, safe)
+        return self._hold_contacts(config, dt, v, relaxed, safe)
 
-    def _may_resolve(self, solve, bounded: bool, stage: str) -> bool:
-        """May a re-solve by ``solve`` start: a safe command's (``bounded``) as a 'retry', else as a 'stage' (its cut
-        recorded as ``stage`` when not), at the CPU time of the longest such re-solve so far."""
+    def _may_resolve(self, safe: bool, stage: str) -> bool:
+        """May a re-solve start: the safe command's (``safe``) as a 'retry', else as a 'stage' (its cut recorded as
+        ``stage`` when not), at the CPU time of the longest such re-solve so far."""
         budget = self.tick_budget
-        cost = budget.safe_estimate() if solve == self._solve_constraints_only else budget.resolve_cost
+        cost = budget.safe_estimate() if safe else budget.resolve_cost
         work = None  # the larger of the tick's first solve and largest re-solve (TickBudget.may_start)
         if self._weighted_tick or not self._level_order:  # one QP: a re-solve starts from the tick's answer
             work = budget.resolve_work if budget.resolves > 1 else min(budget.first_work, self.FIRST_RESOLVE_WORK)
-        if budget.may_start("retry" if bounded else "stage", cost, work=work):
+        if budget.may_start("retry" if safe else "stage", cost, work=work):
             return True
-        if not bounded:
+        if not safe:
             self._cut.append(stage)
         return False
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, solve=None,
-                          bounded: bool = False) -> np.ndarray:
-        """Second-order contact correction (constructor docstring, ``contact_correction``); ``solve(config)``
-        re-solves the problem in the buffers (default: the tick's QP)."""
-        solve = solve or self._solve_assembled
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, safe: bool = False) -> np.ndarray:
+        """Second-order contact correction (constructor docstring, ``contact_correction``; ``safe``: _held_command)."""
+        solve = self._solve_constraints_only if safe else self._solve_assembled
         self.contact_corrections = 0
         worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
@@ -210,7 +194,7 @@ class ContactHold:
         b0 = self._b.copy()
         try:
             for k in range(3):
-                if not self._may_resolve(solve, bounded, f"contact correction after {k} of 3 re-solves"):
+                if not self._may_resolve(safe, f"contact correction after {k} of 3 re-solves"):
                     break  # the best command is kept
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
@@ -236,13 +220,13 @@ class ContactHold:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, solve=None,
-                       bounded: bool = False) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring);
-        ``solve(config)`` re-solves the problem in the buffers (default: the tick's QP). Rank-deficient contact rows
+    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list,
+                       safe: bool = False) -> TickResult:
+        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring; ``safe``:
+        :meth:`_held_command`). Rank-deficient contact rows
         get consistent right-hand sides first (as :meth:`_consistent_contact_rhs`: else their disagreeing corrections
         ask a large v in the nearly singular direction); each region's solution is corrected before it is measured."""
-        solve = solve or self._solve_assembled
+        solve = self._solve_constraints_only if safe else self._solve_assembled
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -257,7 +241,7 @@ class ContactHold:
                 cr = self._contact_rows
                 self._b[cr] = basis @ (basis.T @ self._b[cr])
             for k in range(n_radii):
-                if not self._may_resolve(solve, bounded, f"trust region after {k} of at most {n_radii} radii"):
+                if not self._may_resolve(safe, f"trust region after {k} of at most {n_radii} radii"):
                     break  # the least drifting command is kept
                 if basis is not None and k == 0:
                     radius = math.inf  # first the whole box, with consistent contact rows
@@ -275,7 +259,7 @@ class ContactHold:
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
-                    v_tr = self._correct_contacts(config, dt, v_tr, solve, bounded)
+                    v_tr = self._correct_contacts(config, dt, v_tr, safe)
                 d = last = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d

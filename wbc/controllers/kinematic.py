@@ -140,7 +140,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         #: the tick's counted work, clock guard and stage costs (:class:`wbc.controllers.budget.TickBudget`)
         self.tick_budget = TickBudget()
         self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
-        self._configure_budget()
         self.budget = budget
         self._cut: list[str] = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         #: second-order contact corrections (re-solves) done by the last tick.
@@ -216,10 +215,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _start_work(self, budget_s: float, plan=None) -> None:
-        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`) and share its work with every QP
-        backend."""
-        self._configure_budget()
-        self.tick_budget.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
+        """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers:
+        class or instance attributes, they may change between ticks) and share its work with every QP backend."""
+        tb = self.tick_budget
+        tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
+        tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
         stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
                  None if plan is None else plan.rescue)
@@ -233,13 +233,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     b.work = work
                     b.independent = CONFIRM_ORDER
             self._work_stamp = stamp
-
-    def _configure_budget(self) -> None:
-        """The controller's numbers into its :class:`~wbc.controllers.budget.TickBudget` (they may be changed
-        between ticks: attributes of the class or of the instance)."""
-        tb = self.tick_budget
-        tb.clock_guard = self.clock_guard
-        tb.stage_factor, tb.stage_deadline = self.STAGE_FACTOR, self.STAGE_DEADLINE
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -369,16 +362,31 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                 v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
             except SolverError as first_failure:
                 v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
-            result = self._held_answer(config, dt, v, relaxed, return_rate, held)  # contacts held, output guarded
+            # its contacts held (second-order correction, trust region; slower returns, a cut cascade's weighted form)
+            result = self._held_command(config, dt, v, relaxed, held=held)
+            if not result.ok and not held:
+                if return_rate is not None:
+                    result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
+                elif self._cut and self._level_order and not self._weighted_tick:
+                    result = self._weighted_answer(config, dt, relaxed) or result
+            if not result.ok:  # no trust region kept the contacts: the safe command is taken instead
+                raise DriftFailure(result.message)
+            fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
+            if fault:
+                raise SolverError(f"output guard: {fault}")
+            path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
+                    else TickPath("general", self.backend.name))
+            result.path = path if return_rate is None else replace(path, return_rate=True)
         except InvalidInputError:
-            self._in_solve = False
-            self.drift_meter.forget()
             raise
         except Exception as exc:  # noqa: BLE001 — no failure may escape the control tick (module docstring)
             t1 = t1 or perf_counter()
             self._eq_rows = None  # the rank may have changed: recompute next tick
             self._work.reserve = 0.0
             result = self._recover(config, dt, exc)  # → the safe command
+        finally:
+            self._in_solve = False
+            self.drift_meter.forget()
         return self._close_tick(result, weighted_start, t0, t1, dt)
 
     def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
@@ -391,8 +399,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             plan = self._fused_plan(config, dt)
         if plan is None:
             return None
-        if plan.rescue is not None:
-            plan.rescue.work = self._work
         try:
             return self._fused_tick(plan, config, dt, t0)
         except InvalidInputError:
@@ -411,46 +417,18 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self.backend.count_give_ups = not self._level_order
             self.backend.skip_give_ups = bool(self._level_order)
         self._assembled = False
-        self._in_solve, self._contact_expected = True, None
-        self.drift_meter.forget()
+        self._in_solve, self._contact_expected = True, None  # (the drift meter forgot at the last tick's end)
         weighted_start = bool(self._level_order) and self._weighted_left > 0
-        self._weighted_tick = weighted_start
-        self._weighted_qp = None
+        self._weighted_tick, self._weighted_qp = weighted_start, None
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
         return weighted_start
 
-    def _held_answer(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, return_rate: float | None,
-                     held: bool) -> TickResult:
-        """The solved tick's command with its contacts held (second-order correction, trust region; the weighted
-        form of a cut cascade, slower returns), checked by the output guard and labelled with its route.
-
-        Raises:
-            SolverError: the output guard's fault; DriftFailure: no trust region kept the contacts.
-        """
-        result = self._hold_contacts(config, dt, v, relaxed) if held else self._held_command(config, dt, v, relaxed)
-        if not result.ok and not held:
-            if return_rate is not None:
-                result, return_rate = self._slower_return(config, dt, relaxed, return_rate, result)
-            elif self._cut and self._level_order and not self._weighted_tick:
-                result = self._weighted_answer(config, dt, relaxed) or result
-        if result.ok:
-            fault = command_fault(result.v, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance)
-            if fault:
-                raise SolverError(f"output guard: {fault}")
-            path = (TickPath("levels", weighted=self._weighted_tick) if self._level_order
-                    else TickPath("general", self.backend.name))
-            result.path = path if return_rate is None else replace(path, return_rate=True)
-            return result
-        raise DriftFailure(result.message)  # no trust region kept the contacts: the safe command is taken instead
-
     def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None,
                     dt: float) -> TickResult:
         """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
         marks, feedback constraints and the failure count."""
-        self._in_solve = False
-        self.drift_meter.forget()
         if self._level_order:
             # a cascade cut by the budget: the next WEIGHTED_TICKS ticks, and until one is cheap enough for the
             # cascade, answer with the weighted form (one QP)

@@ -80,76 +80,69 @@ class Recovery:
         if fallback == "hold" and self._contact_rows.size and not data_fault and not skipped:
             # 'contacts_held': each contact frame held at its anchor, the correction towards it scaled by β
             scales = (0.0,) if held_first else _HELD_CORRECTION_SCALES
-            b0 = self._b.copy()
             if held_first and self._fallback_backend is None:
                 self._fallback_backend = self._new_backend()
-            backend = self._fallback_backend
-            independent = backend.independent if backend is not None else ()
-            placements = [c.placement for c in self._contacts]
-            try:
-                if backend is not None:
-                    backend.independent = ()  # a failed β needs no confirmation: the next one is tried
-                for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
-                    c.placement = anchor
-                    self._b[r0:r1] = c.compute(config, dt)[1]
-                anchored = self._b[self._contact_rows].copy()
-                # dependent contact rows' corrections made consistent (as _consistent_contact_rhs)
-                Ur = self.contact_range.basis(self._A[self._contact_rows], self.rank_rtol)
-                if Ur.shape[1] < anchored.size:
-                    anchored = Ur @ (Ur.T @ anchored)
-                tried = []  # (β, what became of its command) for the message
-                for beta in scales:
-                    if not budget.fits(budget.safe_estimate() + budget.check_cost):
-                        skipped = f"contacts_held from β = {beta:g}"
-                        break
-                    self._b[self._contact_rows] = beta * anchored
-                    try:
-                        # β = 0 (v = 0 solves it when the box holds it): its solver's own iteration limit, not the
-                        # few iterations a spent count leaves (its solves still counted)
-                        v_h = self._solve_constraints_only(config) if beta else self._solve_uncapped(config, held_first)
-                    except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
-                        capped = getattr(self._fallback_backend, "iterations_capped", False)
-                        tried.append(f"β = {beta:g}: {type(qexc).__name__}"
-                                     + (" (DAQP stopped at its iteration limit)" if capped else ""))
-                        continue
-                    if command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance):
-                        tried.append(f"β = {beta:g}: outside the constraints")
-                        continue
-                    d = math.nan
-                    for _ in range(9 if beta == 0.0 else 1):
-                        counted_out = work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
-                        if counted_out or not budget.fits(budget.check_cost):
-                            skipped, count_stop = "contacts_held (its last scalings)", counted_out
+            b0, placements = self._b.copy(), [c.placement for c in self._contacts]
+            with self._unconfirmed([self._fallback_backend]):  # a failed β needs no confirmation: the next is tried
+                try:
+                    for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
+                        c.placement = anchor
+                        self._b[r0:r1] = c.compute(config, dt)[1]
+                    anchored = self._b[self._contact_rows].copy()
+                    # dependent contact rows' corrections made consistent (as _consistent_contact_rhs)
+                    Ur = self.contact_range.basis(self._A[self._contact_rows], self.rank_rtol)
+                    if Ur.shape[1] < anchored.size:
+                        anchored = Ur @ (Ur.T @ anchored)
+                    tried = []  # (β, what became of its command) for the message
+                    for beta in scales:
+                        if not budget.fits(budget.safe_estimate() + budget.check_cost):
+                            skipped = f"contacts_held from β = {beta:g}"
                             break
-                        work.add(self.CHECK_WORK)
-                        t = work.seconds()
-                        d = 0.0 if tol is None else self.drift_meter.held_drift(config, v_h, dt, self._contacts,
-                                                                                anchors, beta)
-                        held = (tol is None or d <= tol) and self.drift_meter.within_radius(
-                            config, v_h, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS)
-                        budget.check_cost = max(budget.check_cost, work.seconds() - t)
-                        if held:
-                            v, fallback = v_h, "contacts_held"
+                        self._b[self._contact_rows] = beta * anchored
+                        try:
+                            # β = 0 (v = 0 solves it when the box holds it): its solver's own iteration limit, not the
+                            # few iterations a spent count leaves (its solves still counted)
+                            v_h = self._solve_constraints_only(config, not beta, held_first)  # (uncapped, held)
+                        except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
+                            capped = getattr(self._fallback_backend, "iterations_capped", False)
+                            tried.append(f"β = {beta:g}: {type(qexc).__name__}"
+                                         + (" (DAQP stopped at its iteration limit)" if capped else ""))
+                            continue
+                        if command_fault(v_h, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance):
+                            tried.append(f"β = {beta:g}: outside the constraints")
+                            continue
+                        d = math.nan
+                        for _ in range(9 if beta == 0.0 else 1):
+                            counted_out = work.spent(WORK_LIMIT_FACTOR, self.CHECK_WORK)
+                            if counted_out or not budget.fits(budget.check_cost):
+                                skipped, count_stop = "contacts_held (its last scalings)", counted_out
+                                break
+                            work.add(self.CHECK_WORK)
+                            t = work.seconds()
+                            d, inside = self.drift_meter.held_drift(config, v_h, dt, self._contacts, anchors, beta,
+                                                                    self.SAFE_COMMAND_RADIUS)
+                            held = (tol is None or d <= tol) and inside
+                            budget.check_cost = max(budget.check_cost, work.seconds() - t)
+                            if held:
+                                v, fallback = v_h, "contacts_held"
+                                break
+                            # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)
+                            # (at most 1/2; 1/2 when the frames left the run's radius instead)
+                            v_h = (0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))) * v_h
+                        tried.append(f"β = {beta:g}: drift {d:.3g} m")
+                        if fallback != "hold" or skipped:
                             break
-                        # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)
-                        # (at most 1/2; 1/2 when the frames left the run's radius instead)
-                        v_h = (0.5 if tol is None or d <= tol else min(0.5, 0.9 * math.sqrt(tol / d))) * v_h
-                    tried.append(f"β = {beta:g}: drift {d:.3g} m")
-                    if fallback != "hold" or skipped:
-                        break
-                if fallback == "hold" and not skipped:
-                    message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
-                                f"{scales} keeps them within sole_drift_tolerance {tol:.3g} m "
-                                f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began "
-                                f"({'; '.join(tried)})")
-            except Exception:  # noqa: BLE001 — never raises: hold
-                pass
-            finally:
-                for c, placement in zip(self._contacts, placements):
-                    c.placement = placement
-                np.copyto(self._b, b0)
-                if backend is not None:
-                    backend.independent = independent
+                    if fallback == "hold" and not skipped:
+                        message += (f"; contacts_held not taken: no command with the contacts' correction scaled by "
+                                    f"{scales} keeps them within sole_drift_tolerance {tol:.3g} m "
+                                    f"and {self.SAFE_COMMAND_RADIUS:.3g} m of where the failed ticks began "
+                                    f"({'; '.join(tried)})")
+                except Exception:  # noqa: BLE001 — never raises: hold
+                    pass
+                finally:
+                    for c, placement in zip(self._contacts, placements):
+                        c.placement = placement
+                    np.copyto(self._b, b0)
         if held_first and fallback == "hold" and not count_stop:
             v, fallback = self._safe_constraints_only(config, dt, anchors)
         if skipped:
@@ -162,10 +155,19 @@ class Recovery:
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
-    def _solve_constraints_only(self, config: Configuration) -> np.ndarray:
+    def _solve_constraints_only(self, config: Configuration, uncapped: bool = False, held: bool = False) -> np.ndarray:
         """The weighted soft level under the constraint objects in the buffers (hard tasks left out; nearly dependent
-        rows once more as band rows, as ``_solve_banded``) on the fallback backend; with the clock guard its CPU time
-        is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        rows once more as band rows, as ``_solve_banded``) on the fallback backend; ``uncapped``: its iteration limit
+        not lowered by the tick's spent count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still
+        counted); ``held``: each DAQP call at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
+        load). With the clock guard its CPU time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        cap, backend = self._work.cap, self._fallback_backend
+        held = held and isinstance(backend, DaqpBackend)
+        calls = getattr(backend, "call_iterations", None)
+        if uncapped:
+            self._work.cap = math.inf
+        if held:
+            backend.call_iterations = self.HELD_ITERATIONS
         t = self._work.seconds() if self.clock_guard else 0.0
         try:
             H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
@@ -181,6 +183,9 @@ class Recovery:
                                                                        0.5 * self.dependent_row_tolerance), lb, ub)
             return v_safe
         finally:
+            self._work.cap = cap
+            if held:
+                backend.call_iterations = calls
             if self.clock_guard:
                 spent = self._work.seconds() - t
                 budget = self.tick_budget
@@ -190,40 +195,21 @@ class Recovery:
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
         """(v, 'constraints_only') when step 2's command (module docstring) is taken, else (zeros, 'hold'): its contacts
         held like an ok tick's (correction, trust region, bounded by the tick's count), taken when within the
-        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.within_radius`). Never raises."""
+        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.held_drift`). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            solve = self._solve_constraints_only
-            v_c = self._held_command(config, dt, solve(config), [], solve, bounded=True).v
+            v_c = self._held_command(config, dt, self._solve_constraints_only(config), [], safe=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
-                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and \
-                    self.drift_meter.within_radius(config, v_c, dt, self._contacts, anchors, self.SAFE_COMMAND_RADIUS):
+                    tol is None or self.sole_drift(config, v_c, dt) <= tol) and self.drift_meter.held_drift(
+                    config, v_c, dt, self._contacts, anchors, 0.0, self.SAFE_COMMAND_RADIUS)[1]:
                 v, fallback = v_c, "constraints_only"
         except Exception:  # noqa: BLE001 — the constraints themselves conflict (or their contacts' correction)
             pass
         if self.clock_guard:
             self.tick_budget.safe_stage_cost = self._work.seconds() - t_stage
         return v, fallback
-
-    def _solve_uncapped(self, config: Configuration, bounded: bool = False) -> np.ndarray:
-        """:meth:`_solve_constraints_only` with the iteration limit not lowered by the tick's spent count
-        (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still counted); ``bounded``: each DAQP call of
-        the fallback backend at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any load).
-        Raises SolverError."""
-        cap, self._work.cap = self._work.cap, math.inf
-        backend = self._fallback_backend
-        bounded = bounded and isinstance(backend, DaqpBackend)
-        calls = getattr(backend, "call_iterations", None)
-        if bounded:
-            backend.call_iterations = self.HELD_ITERATIONS
-        try:
-            return self._solve_constraints_only(config)
-        finally:
-            self._work.cap = cap
-            if bounded:
-                backend.call_iterations = calls
 
     def diagnose(self, config: Configuration, dt: float, *, include_relaxable: bool = True) -> list[tuple[str, float]]:
         """Conflicting hard constraints at ``config``: [(name, violation in its units)], largest first, from the

@@ -2,7 +2,7 @@
 
 Relaxable constraints (joint acceleration limits) are left out of a tick that is infeasible with them
 (``_relax``). Then, when joints are outside their position limits, their return rate is scaled by α: α = 0 first,
-then 1/1000, 1/100, 1/10, 1/2 while they solve and the budget lasts (``_relax_return_rate``, ``_slower_return``);
+then 1/1000, 1/100, 1/10, 1/2 while they solve and the budget lasts (``_relaxation_ladder``, ``_slower_return``);
 when even α = 0 has no solution the contacts' drift corrections rank below it (J_c v = 0). The strict levels'
 weighted form (level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) answers a cascade the budget cut
 (``_weighted_answer``)."""
@@ -20,7 +20,7 @@ from wbc.tick import TickResult
 
 
 #: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
-#: (``KinematicController._relax_return_rate``)
+#: (``Relaxation._relaxation_ladder``)
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 
@@ -46,15 +46,12 @@ class Relaxation:
     def _relaxation_ladder(self, config: Configuration, dt: float,
                            first_failure: SolverError) -> tuple[np.ndarray, list[str], float | None, bool]:
         """The retries of a tick whose QP failed (``first_failure``), in turn (module docstring): dependent contact
-        rows made consistent, the relaxable constraints left out, the return rate scaled (``_relax_return_rate``).
-
-        Returns:
-            (v, relaxed: what was relaxed, α of the return rate or None, held: the contacts' corrections dropped).
-
-        Raises:
-            SolverError: no retry solved (or the clock guard left none the time).
-        """
-        budget, v, relaxed, return_rate, held = self.tick_budget, None, [], None, False
+        rows made consistent, the relaxable constraints left out, the return rate of the joints outside their limits
+        scaled by α: α = 0 first (the feasible sets are nested: when it has no solution no α has; then also
+        J_c v = 0), then from 1/1000 up while they solve and the tick's count lasts, the largest kept (trial solves
+        unconfirmed, no cold retry). Returns (v, what was relaxed, α or None, held: J_c v = 0 asked), the buffers
+        holding v's problem; raises SolverError when no retry solved (or the clock guard left none the time)."""
+        budget, v, relaxed, held = self.tick_budget, None, [], False
         self._work.reserve = 0.0  # the relaxations count as before
         # clock guard: the least-squares re-solve below (does the hard set have a solution?) by RESCUE_DEADLINE
         if not budget.fits(budget.resolve_cost, self.RESCUE_DEADLINE):
@@ -73,102 +70,72 @@ class Relaxation:
             self._relax(config, dt)
             relaxed = [c.name for c in self._relaxable]
             v = self._try_solve(config)
-        if v is None:
-            v, return_rate, held = self._relax_return_rate(config, first_failure)  # raises if not
-            relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
-            if held:
-                relaxed.append("contact drift correction × 0 (J_c v = 0)")
-        return v, relaxed, return_rate, held
-
-    def _relax_return_rate(self, config: Configuration, failure: SolverError) -> tuple[np.ndarray, float, bool]:
-        """The tick solved again with the return rate of the joints outside their limits scaled by α: α = 0 first (the
-        feasible sets are nested: when it has no solution no α has; then also J_c v = 0), then from 1/1000 up while
-        they solve and the tick's count lasts, the largest kept (module docstring). Trial solves: unconfirmed, no
-        cold retry (:meth:`_unconfirmed`).
-
-        Returns:
-            (v, α, held): held is True when the contacts' corrections were dropped (J_c v = 0). The controller's
-            buffers hold the problem of the returned command.
-
-        Raises:
-            SolverError: ``failure`` (the tick's) when no joint is outside its limits, or α = 0 has no solution
-                (with the contacts held either).
-        """
+        if v is not None:
+            return v, relaxed, None, False
         low, high = outside_limits(config, self._box, self._lb, self._ub)
         if not (low.size or high.size):
-            raise failure
-        if not self.tick_budget.fits(self.tick_budget.resolve_cost):
-            raise SolverError(f"{failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
+            raise first_failure
+        if not budget.fits(budget.resolve_cost):
+            raise SolverError(f"{first_failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
         lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
-        held = False
         with self._unconfirmed() as backends:
             self._lb[low] = 0.0
             self._ub[high] = 0.0
-            v0 = self._try_solve(config)
-            if v0 is None and self._contact_rows.size and self.tick_budget.fits(self.tick_budget.resolve_cost):
+            v = self._try_solve(config)
+            if v is None and self._contact_rows.size and budget.fits(budget.resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
-                v0 = self._try_solve(config)
-                held = v0 is not None
-            if v0 is None:
-                raise SolverError(f"{failure}; no solution either with the joints outside their limits held where "
-                                  f"they are (return rate 0)" + (", nor with the contacts held where they are"
-                                                                  if self._contact_rows.size else ""))
+                v = self._try_solve(config)
+                held = v is not None
+            if v is None:
+                raise SolverError(f"{first_failure}; no solution either with the joints outside their limits held "
+                                  f"where they are (return rate 0)" + (", nor with the contacts held where they are"
+                                                                        if self._contact_rows.size else ""))
             for b in backends:  # a failed α only sends the ladder to the next one: no cold retry either
                 b.cold_retry = False
-            v, best = v0, 0.0
+            return_rate = 0.0
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
-                if not self.tick_budget.may_start("retry", self.tick_budget.resolve_cost):
+                if not budget.may_start("retry", budget.resolve_cost):
                     break
                 self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
                 v_alpha = self._try_solve(config)
                 if v_alpha is None:
                     break  # (feasible sets nested: no larger α has a solution)
-                v, best = v_alpha, alpha
-            self._lb[low], self._ub[high] = best * lb0, best * ub0  # the buffers: the returned command's problem
+                v, return_rate = v_alpha, alpha
+            self._lb[low], self._ub[high] = return_rate * lb0, return_rate * ub0  # the returned command's problem
             self._return_bounds = (low, high, lb0, ub0)
-            return v, best, held
+        relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
+        if held:
+            relaxed.append("contact drift correction × 0 (J_c v = 0)")
+        return v, relaxed, return_rate, held
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
                        result: TickResult) -> tuple[TickResult, float]:
         """After the return-rate ladder kept α but no trust region held the contacts: the smaller scales down to 0,
         each solved and held, while the tick's stages last (the sole-drift bound of an ok tick ranks above the return
-        rate); last α = 0 with J_c v = 0, its drift measured from where the full correction sends each frame.
-
-        Returns:
-            (result, α) of the first scale whose tick is ok, else (``result``, ``alpha``) unchanged with the
-            buffers holding α's problem again.
-        """
+        rate); last α = 0 with J_c v = 0 (its drift from where the full correction sends a frame: K dt e plus second
+        order in v dt). Returns (the first ok result, its α), else (``result``, ``alpha``), the buffers α's again."""
         low, high, lb0, ub0 = self._return_bounds
+        rows = self._contact_rows
+        b0 = self._b[rows].copy()
+        steps = [(a, False) for a in _RETURN_RATE_SCALES if a < alpha] + ([(0.0, True)] if rows.size else [])
         with self._unconfirmed():
-            for a in (x for x in _RETURN_RATE_SCALES if x < alpha):
+            for a, held in steps:
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
                 self._lb[low], self._ub[high] = a * lb0, a * ub0
+                if held:
+                    self._b[rows] = 0.0
                 v = self._try_solve(config)
                 if v is None:
                     continue
-                r = self._held_command(config, dt, v, relaxed)
+                r = self._held_command(config, dt, v, relaxed, held=held)
                 if r.ok:
                     relaxed[-1] = f"joint_position_limit return rate × {a:g}"
+                    if held:
+                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
                     return r, a
-            if self._contact_rows.size and self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
-                # α = 0 with the contacts held where they are (J_c v = 0), as the ladder's last step: the drift
-                # from where the full correction would send a frame is then K dt e plus second order in v dt
-                b0 = self._b[self._contact_rows].copy()
-                self._lb[low], self._ub[high] = 0.0, 0.0
-                self._b[self._contact_rows] = 0.0
-                try:
-                    r = self._hold_contacts(config, dt, self._solve_assembled(config), relaxed)
-                except SolverError:
-                    r = None
-                if r is not None and r.ok:
-                    relaxed[-1] = "joint_position_limit return rate × 0"
-                    relaxed.append("contact drift correction × 0 (J_c v = 0)")
-                    return r, 0.0
-                self._b[self._contact_rows] = b0
-            elif self._contact_rows.size:
-                self._cut.append(f"slower returns below × {alpha:g}")
+            self._b[rows] = b0
             self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
             return result, alpha
 
@@ -180,10 +147,11 @@ class Relaxation:
             return None
 
     @contextmanager
-    def _unconfirmed(self):
-        """The backends of the tick's QP (a list), unconfirmed inside the block (a failed trial only sends a ladder to
-        its next step); their ``independent`` restored and ``cold_retry`` back on at its end."""
-        backends = [b for b in (self.backend, self._final_backend, *self._level_backends) if b is not None]
+    def _unconfirmed(self, backends=None):
+        """``backends`` (default: those of the tick's QP; None entries left out) as a list, unconfirmed inside the block
+        (a failed trial only sends a ladder to its next step); their ``independent`` restored and ``cold_retry`` back
+        on at its end."""
+        backends = [b for b in backends or (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
         try:
             for b in backends:
@@ -220,10 +188,8 @@ class Relaxation:
         budget.resolves = 0
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
-        try:
-            result = self._held_command(config, dt, self._solve_assembled(config), relaxed)
-        except SolverError:
-            result = None
+        v = self._try_solve(config)
+        result = None if v is None else self._held_command(config, dt, v, relaxed)
         if result is not None and result.ok:
             self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
             return result
