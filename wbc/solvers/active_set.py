@@ -25,8 +25,8 @@ from numba.extending import overload
 
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
-from wbc.solvers.active_set_block import (block_add, block_direction, block_eqp, block_prepare, block_remove,
-                                          block_start, block_target)
+from wbc.solvers.active_set_block import (block_direction, block_eqp, block_prepare, block_start, block_target,
+                                          block_update)
 from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, forward_substitution,
                                 primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
@@ -77,8 +77,12 @@ def _normal_image(L, n, C, q, is_row, out):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _ws_add(Yw, Sm, mw, y, n):
-    """Append y (n,) as working row mw of Y = L⁻¹Nᵀ and its products to S = Y Yᵀ (unfactored)."""
+def _ws_push(qp, sp, mw, kd, q, side):
+    """Append constraint q of kind kd (0 equality row, 1 row of C, 2 bound) held at ``side`` as working slot mw: its
+    image y = L⁻¹a (in sp.y) as row mw of Y = L⁻¹Nᵀ and its products to S = Y Yᵀ (unfactored). Returns mw + 1."""
+    b, l, u, lb, ub = qp[3], qp[6], qp[7], qp[8], qp[9]
+    Yw, Sm, y = sp.Yw, sp.Sm, sp.y
+    n = y.shape[0]
     for j in range(n):
         Yw[mw, j] = y[j]
     for k in range(mw + 1):
@@ -87,22 +91,14 @@ def _ws_add(Yw, Sm, mw, y, n):
             s += Yw[k, j] * y[j]
         Sm[mw, k] = s
         Sm[k, mw] = s
-
-
-@nb.njit(cache=True, nogil=True)
-def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw):
-    """Remove working entry k (the last one takes its place); returns the new size."""
-    e = mw - 1
-    if k != e:
-        for j in range(n):
-            Yw[k, j] = Yw[e, j]
-        for j in range(mw):
-            Sm[k, j] = Sm[e, j]
-        for j in range(mw):
-            Sm[j, k] = Sm[j, e]
-        Sm[k, k] = Sm[e, e]
-        kind[k], idx[k], side[k], bw[k] = kind[e], idx[e], side[e], bw[e]
-    return e
+    if kd == 0:
+        bw = b[q]
+    elif kd == 1:
+        bw = l[q] if side < 0 else u[q]
+    else:
+        bw = lb[q] if side < 0 else ub[q]
+    sp.kind[mw], sp.idx[mw], sp.side[mw], sp.bw[mw] = kd, q, side, bw
+    return mw + 1
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -120,20 +116,6 @@ def _ws_factor(Sm, Sf, mw, rank_tol):
         if Sf[k, k] * Sf[k, k] <= rank_tol * smax:
             return False
     return True
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x):
-    """Equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
-    H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν); ν in nuw[:mw] (Hx + g + Nᵀν = 0)."""
-    for k in range(mw):
-        s = bw[k]
-        for j in range(n):
-            s += Yw[k, j] * t0[j]
-        nuw[k] = -s
-    forward_substitution(Sf, mw, nuw)
-    backward_substitution(Sf, mw, nuw)
-    primal_from_multipliers(L, n, t0, Yw, nuw, mw, x)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -157,48 +139,46 @@ def _dense_prepare(qp, sp):
 def _dense_start(qp, sp, state, rstate):
     """The working set from ``state``/``rstate`` (slots: equality rows, held rows of C, held bounds) and its
     factor; its size, or DEPENDENT_EQUALITIES."""
-    H, g, A, b, m, C, l, u, lb, ub = qp
-    n = H.shape[0]
+    A, m, C = qp[2], qp[4], qp[5]
+    n = qp[0].shape[0]
     p = C.shape[0]
-    L, Yw, Sm, y, bw, kind, idx, side = sp.L, sp.Yw, sp.Sm, sp.y, sp.bw, sp.kind, sp.idx, sp.side
-    K = kind.shape[0]
+    L, y = sp.L, sp.y
+    K = sp.kind.shape[0]
     mw = 0
     for k in range(m):
-        for j in range(n):
-            y[j] = A[k, j]
-        forward_substitution(L, n, y)
-        _ws_add(Yw, Sm, mw, y, n)
-        kind[mw], idx[mw], side[mw], bw[mw] = 0, k, 0, b[k]
-        mw += 1
+        _normal_image(L, n, A, k, True, y)
+        mw = _ws_push(qp, sp, mw, 0, k, 0)
     for q in range(p):
         if rstate[q] != 0:
             _normal_image(L, n, C, q, True, y)
-            _ws_add(Yw, Sm, mw, y, n)
-            kind[mw], idx[mw], side[mw] = 1, q, rstate[q]
-            bw[mw] = l[q] if rstate[q] < 0 else u[q]
-            mw += 1
+            mw = _ws_push(qp, sp, mw, 1, q, rstate[q])
             if mw == K:
                 break
     for i in range(n):
         if state[i] != 0 and mw < K:
             _normal_image(L, n, C, i, False, y)
-            _ws_add(Yw, Sm, mw, y, n)
-            kind[mw], idx[mw], side[mw] = 2, i, state[i]
-            bw[mw] = lb[i] if state[i] < 0 else ub[i]
-            mw += 1
-    if mw <= n and _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
+            mw = _ws_push(qp, sp, mw, 2, i, state[i])
+    if mw <= n and _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
         return mw
     return DEPENDENT_EQUALITIES
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
-    """:func:`_ws_eqp` on the working set: ν of the equality rows in nu[:m], the oriented multipliers side·ν of the
-    working rows and bounds in lam_r, lam_b."""
+    """The equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
+    H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν) (Hx + g + Nᵀν = 0); ν of the equality rows
+    in nu[:m], the oriented multipliers side·ν of the working rows and bounds in lam_r, lam_b."""
     n = x.shape[0]
     m = qp[4]
-    nuw, kind, idx, side = sp.nuw, sp.kind, sp.idx, sp.side
-    _ws_eqp(sp.L, sp.t0, sp.Yw, sp.Sf, sp.bw, mw, n, nuw, x)
+    Yw, t0, nuw, kind, idx, side = sp.Yw, sp.t0, sp.nuw, sp.kind, sp.idx, sp.side
+    for k in range(mw):
+        s = sp.bw[k]
+        for j in range(n):
+            s += Yw[k, j] * t0[j]
+        nuw[k] = -s
+    forward_substitution(sp.Sf, mw, nuw)
+    backward_substitution(sp.Sf, mw, nuw)
+    primal_from_multipliers(sp.L, n, t0, Yw, nuw, mw, x)
     for k in range(m):
         nu[k] = nuw[k]
     for k in range(m, mw):
@@ -259,41 +239,35 @@ def _dense_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_add(qp, sp, mw, state, rstate, pi, pside):
-    """Append constraint ``pi`` (its image y from :func:`_dense_target`) held at ``pside``; refactor S. The new
-    size, or DEPENDENT_EQUALITIES."""
-    l, u, lb, ub = qp[6], qp[7], qp[8], qp[9]
-    n = sp.y.shape[0]
-    if mw == sp.kind.shape[0]:
-        return DEPENDENT_EQUALITIES
-    _ws_add(sp.Yw, sp.Sm, mw, sp.y, n)
-    if pi >= n:
-        q = pi - n
-        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 1, q, l[q] if pside < 0 else u[q]
-    else:
-        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 2, pi, lb[pi] if pside < 0 else ub[pi]
-    sp.side[mw] = pside
-    mw += 1
-    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
-        return DEPENDENT_EQUALITIES
-    return mw
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_remove(qp, sp, mw, state, rstate, ci):
-    """Remove constraint ``ci`` (a bound < n, else the row ci − n) from the working slots; refactor S. The new
+def _dense_update(qp, sp, mw, state, rstate, ci, pside):
+    """Constraint ``ci`` (a bound < n, else the row ci − n) joins the working slots held at ``pside`` (its image y
+    from :func:`_dense_target`), or leaves them (``pside`` 0; the last slot takes its place); refactor S. The new
     size, or DEPENDENT_EQUALITIES."""
     n = sp.y.shape[0]
-    m = qp[4]
+    Yw, Sm, kind, idx, side, bw = sp.Yw, sp.Sm, sp.kind, sp.idx, sp.side, sp.bw
     kd, q = (1, ci - n) if ci >= n else (2, ci)
-    for k in range(m, mw):
-        if sp.kind[k] == kd and sp.idx[k] == q:
-            mw = _ws_remove(k, mw, n, sp.Yw, sp.Sm, sp.kind, sp.idx, sp.side, sp.bw)
-            break
-    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
+    if pside != 0:
+        if mw == kind.shape[0]:
+            return DEPENDENT_EQUALITIES
+        mw = _ws_push(qp, sp, mw, kd, q, pside)
+    else:
+        for k in range(qp[4], mw):
+            if kind[k] == kd and idx[k] == q:
+                e = mw - 1
+                if k != e:
+                    for j in range(n):
+                        Yw[k, j] = Yw[e, j]
+                    for j in range(mw):
+                        Sm[k, j] = Sm[e, j]
+                    for j in range(mw):
+                        Sm[j, k] = Sm[j, e]
+                    Sm[k, k] = Sm[e, e]
+                    kind[k], idx[k], side[k], bw[k] = kind[e], idx[e], side[e], bw[e]
+                mw = e
+                break
+    if not _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
         return DEPENDENT_EQUALITIES
     return mw
-
 
 
 def _by_space(dense, block):
@@ -316,8 +290,7 @@ _ls_start = _by_space(_dense_start, block_start)
 _ls_eqp = _by_space(_dense_eqp, block_eqp)
 _ls_target = _by_space(_dense_target, block_target)
 _ls_direction = _by_space(_dense_direction, block_direction)
-_ls_add = _by_space(_dense_add, block_add)
-_ls_remove = _by_space(_dense_remove, block_remove)
+_ls_update = _by_space(_dense_update, block_update)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -450,7 +423,7 @@ def dual_active_set(qp, space, arrays, settings):
                     state[kw] = 0
                 else:
                     rstate[kw - n] = 0
-                mw = _ls_remove(qp, space, mw, state, rstate, kw)
+                mw = _ls_update(qp, space, mw, state, rstate, kw, 0)
                 continue
             need_eqp = False
             exact = True
@@ -531,7 +504,7 @@ def dual_active_set(qp, space, arrays, settings):
                 else:
                     rstate[pi - n] = pside
                     lam_r[pi - n] = lam_p
-                mw = _ls_add(qp, space, mw, state, rstate, pi, pside)
+                mw = _ls_update(qp, space, mw, state, rstate, pi, pside)
                 if mw < 0:
                     return mw
                 if refresh:
@@ -545,7 +518,7 @@ def dual_active_set(qp, space, arrays, settings):
             else:
                 rstate[blk - n] = 0
                 lam_r[blk - n] = 0.0
-            mw = _ls_remove(qp, space, mw, state, rstate, blk)
+            mw = _ls_update(qp, space, mw, state, rstate, blk, 0)
             if mw < 0:
                 return mw
     # outputs: the held bounds exactly, x clipped into the bounds, residuals, multipliers, the KKT check
