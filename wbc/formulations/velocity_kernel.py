@@ -24,7 +24,7 @@ from numba.extending import register_jitable
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
-from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
+from wbc.solvers.active_set import qp_ws_sizes, solve_qp_ws
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
@@ -212,7 +212,7 @@ def _views_size(n, nr, mr, p):
 @nb.njit(cache=True, nogil=True)
 def _scratch_views(ws, n, nr, mr, p):
     """The float workspace's scratch after :func:`_solve_views`' part: the row buffer (n,) of the cost formation
-    and :func:`wbc.solvers.active_set.solve_qp_into`'s workspace."""
+    and :func:`wbc.solvers.active_set.solve_qp_ws`'s workspace."""
     o = _views_size(n, nr, mr, p)
     return ws[o:o + n], ws[o + n:]
 
@@ -310,7 +310,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
     g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
     unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
-    :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; every KKT condition of
+    :func:`~wbc.solvers.active_set.solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of
     the reduced problem holds at exit, and the residuals of all rows of the original one are checked against
     ``tolerance``.
 
@@ -362,9 +362,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         it = solve_box_eq_ws((Hr, gr, Ar, br, lbr, ubr), (state, x, nu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24),
                              (iws[:nr], L, Y, S, t, rhs))
     else:
-        # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
-        it = solve_qp_into((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
-                           (max_iter, 1e-12, 1e-12, 1e-24), _scratch_views(ws, n, nr, mr, p)[1], iws)
+        # plain tuples, the types of the fast backend's call: one compiled version of dual_active_set
+        it = solve_qp_ws((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
+                         (max_iter, 1e-12, 1e-12, 1e-24), _scratch_views(ws, n, nr, mr, p)[1], iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
@@ -414,9 +414,9 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     kinematic QP of nv velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base
     through the equality rows from ``er`` (−1: none): the QP's buffers and :func:`kinematic_solve`'s workspaces."""
     nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
-    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + nv
-                  + qp_ws_float_size(nr, mr, n_in))
-    ib = np.zeros(4 + max(nr, qp_ws_int_size(nr, mr)), np.int64)
+    fsize, isize = qp_ws_sizes(nr, mr, n_in)
+    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + nv + fsize)
+    ib = np.zeros(4 + max(nr, isize), np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     return fb, ib
 
