@@ -19,7 +19,8 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     block (on odd seeds zero on most joint columns, as a contact's Jacobian outside its chain), inequality rows, a
     velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
     the full-space kernel must give up on that QP too."""
-    from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve, kinematic_views
+    from wbc.formulations.velocity_kernel import (form_qp, kinematic_pack, kinematic_solve, kinematic_views, rows_pack,
+                                                  task_rows)
 
     rng = np.random.default_rng(500 + seed)
     nv = int(rng.integers(16, 40))
@@ -59,7 +60,10 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     x.lb[:], x.ub[:] = lb, ub
     pw = rng.uniform(0.01, 0.1, kl)
     diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
-    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x.H, x.g)
+    sfb, sib = rows_pack(mt, nv, joints)
+    rows = task_rows.py_func(sfb, sib)
+    rows.J[:], rows.e[:], rows.rowp[:], rows.pw[:] = Js, es, rowp, pw
+    form_qp(sfb, sib, diff, pgain, damping, x.H, x.g)
     # the same cost in numpy: ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
     gain, w, ff = rowp
     target = ff - gain * es
@@ -321,13 +325,13 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
     states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
     s2 = states2[:nr]
-    form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1.H, x1.g)
-    it1 = kinematic_solve(x1, 0, 0.002, 1e-6, 200, s1, r1, ws1, iws1, v1)
-    guard1 = it1 >= 1 and command_within_box(v1, x1.lb, x1.ub, 1e-6) and (
-        n_in == 0 or command_within_rows(v1, C, x1.l, x1.u, 1e-6))
     sfb, sib = rows_pack(mt, nv, prow)
     rows = task_rows.py_func(sfb, sib)
     rows.J[:], rows.e[:], rows.rowp[:], rows.pw[:] = Js, es, rowp, pw
+    form_qp(sfb, sib, diff, 10.0, 1e-6, x1.H, x1.g)
+    it1 = kinematic_solve(x1, 0, 0.002, 1e-6, 200, s1, r1, ws1, iws1, v1)
+    guard1 = it1 >= 1 and command_within_box(v1, x1.lb, x1.ub, 1e-6) and (
+        n_in == 0 or command_within_rows(v1, C, x1.l, x1.u, 1e-6))
     it2, guard2 = kinematic_tick_packed(TickBuffers(fb2, ib2, sfb, sib, states2), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
                                         200, np.zeros(0), NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)

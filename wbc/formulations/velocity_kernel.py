@@ -40,8 +40,9 @@ __all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_d
 KinematicQP = namedtuple("KinematicQP", "H g A b C l u lb ub")
 
 #: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
-#: weight w, feed-forward of each row), pw (kp,) float64 posture weights and prow (kp,) int64 their velocity indices
-TaskRows = namedtuple("TaskRows", "J e rowp pw prow")
+#: weight w, feed-forward of each row), pw (kp,) float64 posture weights, prow (kp,) int64 their velocity indices and
+#: row (nv,), the cost formation's scratch
+TaskRows = namedtuple("TaskRows", "J e rowp pw prow row")
 
 #: the box arguments of :func:`kinematic_tick_packed`: ``idx`` (2, k) int64 and ``limits`` (3, k) float64 of a
 #: joint position limit (:meth:`wbc.constraints.JointPositionLimit.packed`) and ``const`` (2, nv) float64, the
@@ -139,7 +140,7 @@ def weighted_rows(Js, es, rowp, out_J, out_r):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
+def form_qp(sfb, sib, diff, pgain, damping, H, g):
     """The cost of the kinematic QP (:mod:`wbc.formulations.velocity`) from its stacked task rows, written into H
     and g (compiled; the one cost formation of every kinematic route):
 
@@ -150,22 +151,14 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     Each row enters as (√w_k J_k)ᵀ(√w_k J_k), whole rows of H at a time: H is exactly symmetric without a mirror.
 
     Args:
-        Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K (1/s), weight w ≥ 0 and
-            feed-forward ė* of each row (a row with w = 0 is skipped).
-        diff (nv,): q ⊖ q* of the posture task; pw (kp,): its weights d; prow (kp,) int64: its velocity indices
-            i_a (kp = 0: no posture); pgain: its gain K_p (1/s).
-        damping: ε > 0. H (nv, nv), g (nv,): out.
+        sfb, sib: the arrays of :func:`rows_pack` (:class:`TaskRows`: J, e, rowp of each row — a row with w = 0 is
+            skipped —, the posture's weights d and velocity indices i_a, kp = 0: no posture).
+        diff (nv,): q ⊖ q* of the posture task; pgain: its gain K_p (1/s). damping: ε > 0. H (nv, nv), g (nv,): out.
 
     Returns:
         trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
     """
-    return _form_qp_into(TaskRows(Js, es, rowp, pw, prow), diff, pgain, damping, H, g, np.empty(H.shape[0]))
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _form_qp_into(rows, diff, pgain, damping, H, g, row):
-    """:func:`form_qp` on ``rows`` (:class:`TaskRows`) with its scratch row (nv,) given."""
-    Js, es, rowp, pw, prow = rows
+    Js, es, rowp, pw, prow, row = task_rows(sfb, sib)
     n = H.shape[0]
     g[:] = 0.0
     first = True  # H not yet written: the first weighted row's products are added to 0.0 row by row (no memset)
@@ -207,14 +200,6 @@ def _views_size(n, nr, mr, p):
     """Length of the part of the float workspace that :func:`_solve_views` lays out."""
     return (n + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
-
-
-@nb.njit(cache=True, nogil=True)
-def _scratch_views(ws, n, nr, mr, p):
-    """The float workspace's scratch after :func:`_solve_views`' part: the row buffer (n,) of the cost formation
-    and :func:`wbc.solvers.active_set.solve_qp_ws`'s workspace."""
-    o = _views_size(n, nr, mr, p)
-    return ws[o:o + n], ws[o + n:]
 
 
 @register_jitable(inline="always")  # inlined in numba IR: no call, no reference counting of its views
@@ -364,7 +349,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     else:
         # plain tuples, the types of the fast backend's call: one compiled version of dual_active_set
         it = solve_qp_ws((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
-                         (max_iter, 1e-12, 1e-12, 1e-24), _scratch_views(ws, n, nr, mr, p)[1], iws)
+                         (max_iter, 1e-12, 1e-12, 1e-24), ws[_views_size(n, nr, mr, p):], iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
@@ -415,7 +400,7 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     through the equality rows from ``er`` (−1: none): the QP's buffers and :func:`kinematic_solve`'s workspaces."""
     nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
     fsize, isize = qp_ws_sizes(nr, mr, n_in)
-    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + nv + fsize)
+    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + fsize)
     ib = np.zeros(4 + max(nr, isize), np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     return fb, ib
@@ -442,7 +427,7 @@ def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """The float and int64 arrays of mt stacked task rows of nv velocities that the compiled tick reads (their
     parts: :func:`task_rows`), zeroed but for ``prow`` (kp,), the velocity indices of a posture diagonal."""
     prow = np.asarray(prow, np.int64)
-    return np.zeros(mt * nv + 4 * mt + prow.size), np.concatenate((np.array([mt, nv, prow.size], np.int64), prow))
+    return np.zeros(mt * nv + 4 * mt + prow.size + nv), np.concatenate((np.array([mt, nv, prow.size], np.int64), prow))
 
 
 @nb.njit(cache=True, nogil=True)
@@ -451,7 +436,7 @@ def task_rows(sfb, sib):
     mt, nv, kp = sib[0], sib[1], sib[2]
     o = mt * nv
     return TaskRows(sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
-                    sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
+                    sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp], sfb[o + 4 * mt + kp:o + 4 * mt + kp + nv])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, **NO_NRT)  # GIL kept: releasing it costs more per call than a thread could gain
@@ -476,12 +461,10 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
             lb[i] = const_box[0, i]
             ub[i] = const_box[1, i]
         intersect_position_bounds(q, box.idx, box.limits, dt, lb, ub)
-    n0 = 6 if er >= 0 else 0
-    row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
-    check = _form_qp_into(task_rows(bufs.sfb, bufs.sib), diff, pgain, damping, H, g, row)
+    check = form_qp(bufs.sfb, bufs.sib, diff, pgain, damping, H, g)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
-    nr = H.shape[0] - n0
+    nr = H.shape[0] - (6 if er >= 0 else 0)
     states = bufs.states
     it = kinematic_solve(qp, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws, v)
     if it < 1:
@@ -629,8 +612,7 @@ def load_kinematic_parts() -> float:
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     fb, ib = kinematic_pack(7, 6, 0, 0)
     qp = kinematic_views.py_func(fb, ib)[0]
-    form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
-            1e-6, qp.H, qp.g)
+    form_qp(*rows_pack(1, 7, np.zeros(0, np.int64)), np.zeros(7), 0.0, 1e-6, qp.H, qp.g)
     weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
