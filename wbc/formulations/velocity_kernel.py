@@ -29,7 +29,7 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
+__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift",
            "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
            "kinematic_reduced_packed", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
            "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows",
@@ -446,7 +446,7 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
     :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box.idx``, ``box.limits``, dt) (``const``
     (0, 0): lb, ub as assembled); :func:`form_qp` into H, g (``diff`` … ``damping`` as there); its check and
     :func:`all_finite` on b; :func:`kinematic_solve` (working sets ``bufs.states`` = state (nr,) then rstate (p,));
-    :func:`command_within_box` and :func:`command_within_rows` on v.
+    :func:`command_within` on v.
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
@@ -469,8 +469,7 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
     it = kinematic_solve(qp, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws, v)
     if it < 1:
         return it, False
-    return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
-                                                             command_within_rows(v, C, l, u, tolerance))
+    return it, command_within(v, lb, ub, C, l, u, tolerance)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -555,13 +554,17 @@ def all_finite(x):
 
 
 @nb.njit(cache=True, nogil=True)
-def command_within_box(v, lb, ub, tolerance):
-    """True when every v_i is finite with |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance and
-    v_i − ub_i ≤ tolerance (the unscaled box test of the kinematic controller's output guard, the same elementwise
-    numbers); False otherwise, including NaN anywhere (the guard then runs its full scaled test).
+def command_within(v, lb, ub, C, l, u, tolerance):
+    """The compiled screens of the kinematic controller's output guard: True when every v_i is finite with
+    |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance, v_i − ub_i ≤ tolerance (its unscaled box test,
+    the same elementwise numbers), and every row holds with a rounding margin: max(l_i − c_i, c_i − u_i) / d_i +
+    1e-12 ≤ tolerance, c_i = C_i v summed here, d_i = max(1, |C_i| |v|, |l_i|, |u_i|) (finite bounds only; its scaled
+    row test, whose sums, in another order, differ from these by far less than the margin). False otherwise,
+    including NaN or inf anywhere (the guard then runs its full test).
 
     Args:
-        v, lb, ub (n,): command and box (rad/s, m/s; bounds may be ±inf). tolerance: largest excess accepted.
+        v (n,): command (rad/s, m/s). lb, ub (n,): box. C (p, n), l, u (p,): rows. Bounds may be ±inf.
+        tolerance: largest excess (box) and scaled excess (rows) accepted.
     """
     for i in range(v.shape[0]):
         x = v[i]
@@ -569,20 +572,6 @@ def command_within_box(v, lb, ub, tolerance):
             return False
         if not (lb[i] - x <= tolerance and x - ub[i] <= tolerance):
             return False
-    return True
-
-
-@nb.njit(cache=True, nogil=True)
-def command_within_rows(v, C, l, u, tolerance):
-    """True when every inequality row i holds with a rounding margin: max(l_i − c_i, c_i − u_i) / d_i + 1e-12 ≤
-    tolerance, c_i = C_i v summed here, d_i = max(1, |C_i| |v|, |l_i|, |u_i|) (finite bounds only) — the scaled row
-    test of the kinematic controller's output guard, whose sums (another summation order) differ from these by far
-    less than the margin; False otherwise, including NaN or inf anywhere (the guard then runs its full test).
-
-    Args:
-        v (n,): command. C (p, n), l (p,), u (p,): rows and bounds (bounds may be ±inf). tolerance: largest scaled
-            excess accepted.
-    """
     for i in range(C.shape[0]):
         c = 0.0
         s = 0.0
@@ -624,8 +613,7 @@ def load_kinematic_parts() -> float:
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
     contact_pair_drift(frame, frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     all_finite(qp.b)
-    command_within_box(np.zeros(7), qp.lb, qp.ub, 1e-6)
-    command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
+    command_within(np.zeros(7), qp.lb, qp.ub, np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0
