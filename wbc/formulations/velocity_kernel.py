@@ -29,11 +29,11 @@ from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift",
-           "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
-           "kinematic_reduced_packed", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
-           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows",
-           "TaskRows", "TickBuffers", "translation_gap", "weighted_rows"]
+__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
+           "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels", "kinematic_reduced_packed",
+           "kinematic_solve", "kinematic_tick_packed", "kinematic_views", "load_kinematic_parts", "NO_KERNEL_BOX",
+           "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows", "TaskRows", "TickBuffers", "translation_gap",
+           "weighted_rows"]
 
 #: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
 #: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays
@@ -198,7 +198,7 @@ def form_qp(sfb, sib, diff, pgain, damping, H, g):
 @nb.njit(cache=True, nogil=True)
 def _views_size(n, nr, mr, p):
     """Length of the part of the float workspace that :func:`_solve_views` lays out."""
-    return (n + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
+    return (n + 2 * nr * nr + 6 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
 
 
@@ -215,12 +215,16 @@ def _vec(buf, o, n):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _solve_views(ws, n, nr, mr, p):
-    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for n
-    velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
+def _solve_views(qp, er, ws):
+    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for ``qp`` and ``er``:
+    the reduced QP (a plain tuple in :class:`KinematicQP`'s order), L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs,
+    eqres and the solver's workspace (the rest of ``ws``)."""
+    n0 = 6 if er >= 0 else 0
+    n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
+    nr = n - n0
     H, o = _rows(ws, n, nr, nr)
     L, o = _rows(ws, o, nr, nr)
-    vec, o = _rows(ws, o, 7, nr)  # g, lbr, ubr, row, x, z, t
+    vec, o = _rows(ws, o, 6, nr)  # g, lbr, ubr, x, z, t
     Tc, o = _rows(ws, o, 6, nr + 1)
     Eb, o = _rows(ws, o, 6, 6)
     V, o = _rows(ws, o, 6, nr)
@@ -232,8 +236,8 @@ def _solve_views(ws, n, nr, mr, p):
     Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
     S, o = _rows(ws, o, mr, mr)
     rhs, o = _vec(ws, o, mr)
-    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb, Cr, rows[0], rows[1],
-            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs, ws[o:o + 1])
+    return ((H, vec[0], Ar, eqs[0], Cr, rows[0], rows[1], vec[1], vec[2]), L, vec[3], vec[4], vec[5], Tc, Eb, V, wb,
+            rows[2], eqs[1], Y, S, rhs, ws[o:o + 1], ws[o + 1:])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -315,10 +319,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     n0 = 6 if er >= 0 else 0
     nr = n - n0
     neq = A.shape[0]
-    mr = neq - n0
     p = C.shape[0]
-    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _solve_views(ws, n, nr, mr, p)
+    red, L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs, eqres, qpws = _solve_views(qp, er, ws)
+    Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr = red
     for i in range(n0):
         if lb[i] > -np.inf or ub[i] < np.inf:
             return NOT_REDUCIBLE
@@ -348,8 +351,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
                              (iws[:nr], L, Y, S, t, rhs))
     else:
         # plain tuples, the types of the fast backend's call: one compiled version of dual_active_set
-        it = solve_qp_ws((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
-                         (max_iter, 1e-12, 1e-12, 1e-24), ws[_views_size(n, nr, mr, p):], iws)
+        it = solve_qp_ws(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
@@ -478,12 +480,8 @@ def kinematic_reduced_packed(fb, ib):
     ``NOT_REDUCIBLE``), views into ``fb``: a :class:`KinematicQP` in the joint velocities x (nr = nv − 6 variables
     and mr = n_eq − 6 equality rows with the floating-base elimination, else nv and n_eq). Its solution x, given to
     :func:`kinematic_finish_packed`, completes the tick."""
-    qp, _, ws, iws, er = kinematic_views(fb, ib)
-    n0 = 6 if er >= 0 else 0
-    nr = qp.A.shape[1] - n0
-    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])
-    return KinematicQP(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
+    qp, _, ws, _, er = kinematic_views(fb, ib)
+    return KinematicQP(*_solve_views(qp, er, ws)[0])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -491,11 +489,8 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     """Complete a :func:`kinematic_solve` whose solver gave up, from a solution x (nr,) of
     :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; the base velocity recovered through the
     eliminating rows) and the check of every original row against ``tolerance`` (True: passed, ws[:nv] = v·dt)."""
-    qp, _, ws, iws, er = kinematic_views(fb, ib)
-    n0 = 6 if er >= 0 else 0
-    nr = qp.A.shape[1] - n0
-    Tc = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])[9]
-    return _finish(qp, Tc, x, n0, dt, tolerance, ws, v)
+    qp, _, ws, _, er = kinematic_views(fb, ib)
+    return _finish(qp, _solve_views(qp, er, ws)[5], x, 6 if er >= 0 else 0, dt, tolerance, ws, v)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
