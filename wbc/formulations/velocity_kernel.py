@@ -1,15 +1,7 @@
-"""Compiled (numba) kernels of the kinematic QP of :mod:`wbc.formulations.velocity`.
-
-:func:`form_qp` forms its cost (H, g) from the stacked task rows (:func:`weighted_rows`: a strict level's rows by
-the same formula). :func:`kinematic_solve` solves the assembled QP exactly: the floating base eliminated through a
-contact's 6 equality rows, the active-set solvers of :mod:`wbc.solvers.box_eq` and :mod:`wbc.solvers.active_set` on
-the reduced problem, the residuals of the original rows checked. :func:`kinematic_tick_packed` is the compiled tick
-in one call, on the arrays of :func:`kinematic_pack` and :func:`rows_pack` (two arrays each: every array argument
-costs a call from Python its unboxing); when its solver gives up, the reduced QP (:func:`kinematic_reduced_packed`)
-can be solved by another solver and the tick completed (:func:`kinematic_finish_packed`). :func:`contact_drift`
-(:func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends
-against where its row sent it. :func:`load_kinematic_kernels` compiles (or loads from the on-disk cache) the kernels
-once per process, at a controller's construction.
+"""Compiled (numba) kernels of the kinematic QP of :mod:`wbc.formulations.velocity`: its cost (:func:`form_qp`), its
+exact solve with the floating base eliminated (:func:`kinematic_solve`), the compiled tick in one call on two pairs
+of packed arrays (:func:`kinematic_tick_packed`: every array argument of a call from Python costs its unboxing) and
+where a contact frame ends against where its row sent it (:func:`contact_drift`).
 """
 
 from __future__ import annotations
@@ -287,11 +279,8 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
-    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`)
-
-        min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
-
-    with the floating base eliminated (compiled; the arguments are read, never written).
+    """The exact optimum of the assembled kinematic QP (:class:`KinematicQP`) with the floating base eliminated
+    (the arguments are read, never written).
 
     Floating-base elimination (``er`` ≥ 0): the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, whose
     base block E_b is invertible) give v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), so the problem is solved exactly
