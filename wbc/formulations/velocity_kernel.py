@@ -11,14 +11,13 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
-from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
 from wbc.solvers.active_set import qp_ws_sizes, solve_qp_ws
 from wbc.solvers.box_eq import solve_box_eq_ws
-from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
+from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
@@ -194,18 +193,6 @@ def _views_size(n, nr, mr, p):
             + mr * nr + mr * mr + mr + 1)
 
 
-@register_jitable(inline="always")  # inlined in numba IR: no call, no reference counting of its views
-def _rows(buf, o, k, n):
-    """buf[o:o + k n] as k rows of n (a view), and the offset after them (plain Python outside numba)."""
-    return buf[o:o + k * n].reshape((k, n)), o + k * n
-
-
-@register_jitable(inline="always")
-def _vec(buf, o, n):
-    """buf[o:o + n] (a view) and the offset after it."""
-    return buf[o:o + n], o + n
-
-
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(qp, er, ws):
     """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for ``qp`` and ``er``:
@@ -214,20 +201,20 @@ def _solve_views(qp, er, ws):
     n0 = 6 if er >= 0 else 0
     n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
     nr = n - n0
-    H, o = _rows(ws, n, nr, nr)
-    L, o = _rows(ws, o, nr, nr)
-    vec, o = _rows(ws, o, 6, nr)  # g, lbr, ubr, x, z, t
-    Tc, o = _rows(ws, o, 6, nr + 1)
-    Eb, o = _rows(ws, o, 6, 6)
-    V, o = _rows(ws, o, 6, nr)
-    wb, o = _vec(ws, o, 6)
-    Cr, o = _rows(ws, o, p, nr)
-    rows, o = _rows(ws, o, 3, p)  # lr, ur, mu
-    Ar, o = _rows(ws, o, mr, nr)
-    eqs, o = _rows(ws, o, 2, mr)  # br, nu
-    Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
-    S, o = _rows(ws, o, mr, mr)
-    rhs, o = _vec(ws, o, mr)
+    H, o = carve2(ws, n, nr, nr)
+    L, o = carve2(ws, o, nr, nr)
+    vec, o = carve2(ws, o, 6, nr)  # g, lbr, ubr, x, z, t
+    Tc, o = carve2(ws, o, 6, nr + 1)
+    Eb, o = carve2(ws, o, 6, 6)
+    V, o = carve2(ws, o, 6, nr)
+    wb, o = carve(ws, o, 6)
+    Cr, o = carve2(ws, o, p, nr)
+    rows, o = carve2(ws, o, 3, p)  # lr, ur, mu
+    Ar, o = carve2(ws, o, mr, nr)
+    eqs, o = carve2(ws, o, 2, mr)  # br, nu
+    Y, o = carve2(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    S, o = carve2(ws, o, mr, mr)
+    rhs, o = carve(ws, o, mr)
     return ((H, vec[0], Ar, eqs[0], Cr, rows[0], rows[1], vec[1], vec[2]), L, vec[3], vec[4], vec[5], Tc, Eb, V, wb,
             rows[2], eqs[1], Y, S, rhs, ws[o:o + 1], ws[o + 1:])
 
@@ -403,14 +390,14 @@ def kinematic_views(fb, ib):
     as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
-    H, o = _rows(fb, 0, nv, nv)
-    g, o = _vec(fb, o, nv)
-    A, o = _rows(fb, o, neq, nv)
-    b, o = _vec(fb, o, neq)
-    C, o = _rows(fb, o, p, nv)
-    l, o = _vec(fb, o, p)
-    u, o = _vec(fb, o, p)
-    box, o = _rows(fb, o, 2, nv)
+    H, o = carve2(fb, 0, nv, nv)
+    g, o = carve(fb, o, nv)
+    A, o = carve2(fb, o, neq, nv)
+    b, o = carve(fb, o, neq)
+    C, o = carve2(fb, o, p, nv)
+    l, o = carve(fb, o, p)
+    u, o = carve(fb, o, p)
+    box, o = carve2(fb, o, 2, nv)
     return KinematicQP(H, g, A, b, C, l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 

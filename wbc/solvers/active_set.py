@@ -27,7 +27,7 @@ from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
 from wbc.solvers.active_set_block import (block_direction, block_eqp, block_prepare, block_start, block_target,
                                           block_update)
-from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, forward_substitution,
+from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_lower, forward_substitution,
                                 primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
@@ -584,24 +584,16 @@ def solve_qp_ws(qp, arrays, limits, fw=None, iw=None):
     Yw, o = carve2(fw, o, K, n)
     Sm, o = carve2(fw, o, K, K)
     Sf, o = carve2(fw, o, K, K)
-    t0 = fw[o:o + n]
-    y = fw[o + n:o + 2 * n]
-    w = fw[o + 2 * n:o + 3 * n]
-    zd = fw[o + 3 * n:o + 4 * n]
-    lam_b = fw[o + 4 * n:o + 5 * n]
-    rb = fw[o + 5 * n:o + 6 * n]
-    o += 6 * n
-    tmp = fw[o:o + K]
-    r = fw[o + K:o + 2 * K]
-    bw = fw[o + 2 * K:o + 3 * K]
-    nuw = fw[o + 3 * K:o + 4 * K]
-    o += 4 * K
-    lam_r = fw[o:o + p]
-    sc = fw[o + p:o + p + 1]
-    out = fw[o + p + 1:o + p + 4]
-    space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
+    vn, o = carve2(fw, o, 6, n)  # t0, y, w, zd, lam_b, rb
+    vk, o = carve2(fw, o, 4, K)  # tmp, r, bw, nuw
+    lam_r, o = carve(fw, o, p)
+    sc, o = carve(fw, o, 1)
+    out, o = carve(fw, o, 3)
+    space = DenseSpace(L, Yw, Sm, Sf, vn[0], vn[1], vn[2], vk[0], vk[1], vk[2], vk[3], iw[:K], iw[K:2 * K],
+                       iw[2 * K:3 * K], sc, rank_tol)
+    lam_b = vn[4]
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out),
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, vn[3], vn[5], out),
                          ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
     eq_residual[0] = out[0]
     for i in range(n):
