@@ -11,7 +11,7 @@ import pytest
 import qpsolvers
 
 from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, BlockSpace, QPLimits, QPWarmArrays,
-                                    dual_active_set, qp_ws_sizes, solve_qp_ws)
+                                    dual_active_set, qp_ws_sizes, solve_qp_into, solve_qp_ws)
 from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
@@ -92,17 +92,17 @@ def test_both_strategies_give_the_exact_optimum(seed):
 
 
 def _into(qp, fw, iw, max_iter):
-    """solve_qp_ws from a cold working set in the given workspaces: every output, copied."""
+    """solve_qp_into from a cold working set in the given workspaces: every output, copied."""
     H, g, A, b, C, l, u, lb, ub = qp
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
     state, rstate = np.zeros(n, np.int8), np.zeros(p, np.int8)
     x, nu, mu, z, res = np.zeros(n), np.zeros(m), np.zeros(p), np.zeros(n), np.zeros(1)
-    it = solve_qp_ws(tuple(qp), (state, rstate, x, nu, mu, z, res), (max_iter, 1e-12, 1e-12, 1e-24), fw, iw)
+    it = solve_qp_into(tuple(qp), (state, rstate, x, nu, mu, z, res), (max_iter, 1e-12, 1e-12, 1e-24), fw, iw)
     return it, x, nu, mu, z, state, rstate, res
 
 
 @pytest.mark.parametrize("seed", range(12))
-def test_solve_qp_ws_ignores_what_its_workspace_holds(seed):
+def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
     """The answer (every output, the residual of an exit code included) is a function of the QP: the same bits from
     a fresh (zeroed) workspace, from one dirtied by solving a different QP of the same size, and from one filled
     with arbitrary numbers; on success it is quadprog's optimum."""

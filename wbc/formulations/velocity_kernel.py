@@ -15,7 +15,7 @@ import numpy as np
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
-from wbc.solvers.active_set import qp_ws_sizes, solve_qp_ws
+from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
@@ -326,8 +326,8 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         it = solve_box_eq_ws((Hr, gr, Ar, br, lbr, ubr), (state, x, nu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24),
                              (iws[:nr], L, Y, S, t, rhs))
     else:
-        # plain tuples, the types of the fast backend's call: one compiled version of dual_active_set
-        it = solve_qp_ws(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
+        # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
+        it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0

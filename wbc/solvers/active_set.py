@@ -33,7 +33,8 @@ from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP,
                                 NOT_VERIFIED)
 
 __all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "QPLimits", "QPWarmArrays",
-           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_ws"]
+           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into",
+           "solve_qp_ws"]
 
 #: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
 #: matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r, bw, nuw (K,); kind (0 equality, 1 row of C,
@@ -549,13 +550,13 @@ def dual_active_set(qp, space, arrays, settings):
 
 @nb.njit(cache=True, nogil=True)
 def qp_ws_sizes(n, m, p):
-    """Lengths of the float and int64 workspaces of :func:`solve_qp_ws` for n variables, m equality, p other rows."""
+    """Lengths of the float and int64 workspaces of :func:`solve_qp_into` for n variables, m equality, p other rows."""
     K = n + m + 1
     return n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4, 3 * K
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_ws(qp, arrays, limits, fw=None, iw=None):
+def solve_qp_ws(qp, arrays, limits):
     """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest).
 
     Args:
@@ -566,11 +567,18 @@ def solve_qp_ws(qp, arrays, limits, fw=None, iw=None):
             exit code other than NOT_VERIFIED).
         limits: a :data:`QPLimits`: max_iter (drops and GI steps), primal_tol, dual_tol, rank_tol (relative pivot of
             S² below which W counts as dependent).
-        fw, iw: float64 and int64 workspaces at least :func:`qp_ws_sizes` (n, m, p) long, or None (allocated here).
 
     Returns:
         steps (≥ 1) on success, x inside [lb, ub] exactly; or a negative exit code.
     """
+    fsize, isize = qp_ws_sizes(qp[0].shape[0], qp[2].shape[0], qp[4].shape[0])
+    return solve_qp_into(qp, arrays, limits, np.empty(fsize), np.empty(isize, np.int64))
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def solve_qp_into(qp, arrays, limits, fw, iw):
+    """:func:`solve_qp_ws` in the caller's float64 and int64 workspaces fw, iw (at least :func:`qp_ws_sizes`
+    (n, m, p) long): no allocation (a kernel compiled without numba's runtime may call it)."""
     H, g, A, b, C, l, u, lb, ub = qp
     state, rstate, x, nu, mu, z, eq_residual = arrays
     max_iter, primal_tol, dual_tol, rank_tol = limits
@@ -578,8 +586,6 @@ def solve_qp_ws(qp, arrays, limits, fw=None, iw=None):
     m = A.shape[0]
     p = C.shape[0]
     K = n + m + 1  # a working set of independent constraints has at most n members
-    if fw is None:
-        fw, iw = np.empty(qp_ws_sizes(n, m, p)[0]), np.empty(3 * K, np.int64)
     L, o = carve2(fw, 0, n, n)
     Yw, o = carve2(fw, o, K, n)
     Sm, o = carve2(fw, o, K, K)
@@ -603,12 +609,12 @@ def solve_qp_ws(qp, arrays, limits, fw=None, iw=None):
 
 @once_per_process
 def load_active_set_kernels() -> None:
-    """Compile (or load), once per process, :func:`solve_qp_ws` for its callers' argument types (plain tuples):
+    """Compile (or load), once per process, :func:`solve_qp_into` for its callers' argument types (plain tuples):
     the ``fast`` backend's and the kinematic tick's loaders run after this one and link this version."""
     n, m, p = 2, 1, 1
     fsize, isize = qp_ws_sizes(n, m, p)
-    solve_qp_ws((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
-                 -np.ones(n), np.ones(n)),
-                (np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m), np.empty(p), np.empty(n),
-                 np.empty(1)),
-                (10, 1e-12, 1e-12, 1e-24), np.empty(fsize), np.empty(isize, np.int64))
+    solve_qp_into((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
+                   -np.ones(n), np.ones(n)),
+                  (np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m), np.empty(p), np.empty(n),
+                   np.empty(1)),
+                  (10, 1e-12, 1e-12, 1e-24), np.empty(fsize), np.empty(isize, np.int64))
