@@ -19,7 +19,8 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     block (on odd seeds zero on most joint columns, as a contact's Jacobian outside its chain), inequality rows, a
     velocity box with position limits clipped into it — against quadprog. When the kernel gives up (negative code)
     the full-space kernel must give up on that QP too."""
-    from wbc.formulations.velocity_kernel import form_qp, kinematic_pack, kinematic_solve, kinematic_views
+    from wbc.formulations.velocity_kernel import (form_qp, kinematic_pack, kinematic_solve, kinematic_views, rows_pack,
+                                                  task_rows)
 
     rng = np.random.default_rng(500 + seed)
     nv = int(rng.integers(16, 40))
@@ -59,7 +60,10 @@ def test_compiled_tick_is_the_optimum_of_its_qp(seed):
     x.lb[:], x.ub[:] = lb, ub
     pw = rng.uniform(0.01, 0.1, kl)
     diff, pgain, damping = rng.standard_normal(nv), 10.0, 1e-6
-    form_qp(Js, es, rowp, diff, pw, joints.astype(np.int64), pgain, damping, x.H, x.g)
+    sfb, sib = rows_pack(mt, nv, joints)
+    rows = task_rows.py_func(sfb, sib)
+    rows.J[:], rows.e[:], rows.rowp[:], rows.pw[:] = Js, es, rowp, pw
+    form_qp(sfb, sib, diff, pgain, damping, x.H, x.g)
     # the same cost in numpy: ½ Σ w (J v − v*)² + ½ Σ d (v_i − s_i)² + ½ ε ‖v‖²
     gain, w, ff = rowp
     target = ff - gain * es
@@ -215,10 +219,11 @@ def test_sole_drift_is_the_distance_from_where_the_contact_row_sends_the_sole(ro
 
 @pytest.mark.parametrize("seed", range(10))
 def test_command_screen_passes_only_where_the_unscaled_box_test_does(seed):
-    """wbc.formulations.velocity_kernel.command_within_box (the output guard's compiled screen) against the numpy test
-    it stands for: v finite, v·v finite and max(lb − v, v − ub) ≤ tolerance; True exactly there (with |v| < 1e100),
-    on boxes with infinite sides, NaN entries and commands just inside and just outside by 1e-7 (tolerance 1e-6)."""
-    from wbc.formulations.velocity_kernel import command_within_box
+    """wbc.formulations.velocity_kernel.command_within (the output guard's compiled screens; no rows here) against the
+    numpy test it stands for: v finite, v·v finite and max(lb − v, v − ub) ≤ tolerance; True exactly there (with
+    |v| < 1e100), on boxes with infinite sides, NaN entries and commands just inside and just outside by 1e-7
+    (tolerance 1e-6)."""
+    from wbc.formulations.velocity_kernel import command_within
 
     rng = np.random.default_rng(900 + seed)
     n, tol = 30, 1e-6
@@ -242,17 +247,18 @@ def test_command_screen_passes_only_where_the_unscaled_box_test_does(seed):
             v[k] = 1e200 if not np.isfinite(ub[k]) else v[k]
         with np.errstate(invalid="ignore", over="ignore"):
             reference = bool(np.isfinite(v @ v) and np.maximum(lb - v, v - ub).max() <= tol)
-        assert command_within_box(v, lb, ub, tol) == (reference and bool(np.all(np.abs(v) < 1e100)))
+        screen = command_within(v, lb, ub, np.zeros((0, n)), np.zeros(0), np.zeros(0), tol)
+        assert screen == (reference and bool(np.all(np.abs(v) < 1e100)))
 
 
 @pytest.mark.parametrize("seed", range(10))
 def test_row_screen_passes_only_where_the_scaled_row_test_does(seed):
-    """wbc.formulations.velocity_kernel.command_within_rows (the output guard's compiled screen of the inequality
-    rows) against the numpy test of the kinematic controller's output guard it stands for, written out here:
-    max(l − Cv, Cv − u) / max(1, |C||v|, |l|, |u|) ≤ tolerance (finite bounds in the scale). Whenever the screen
+    """wbc.formulations.velocity_kernel.command_within (the output guard's compiled screens; an unbounded box here)
+    on inequality rows against the numpy test of the kinematic controller's output guard it stands for, written out
+    here: max(l − Cv, Cv − u) / max(1, |C||v|, |l|, |u|) ≤ tolerance (finite bounds in the scale). Whenever the screen
     passes, that test passes; and it passes whenever the test holds with 1e-9 to spare — on rows with infinite sides,
     NaN entries and commands putting one row just inside / just outside its bounds by 1e-7 (tolerance 1e-6)."""
-    from wbc.formulations.velocity_kernel import command_within_rows
+    from wbc.formulations.velocity_kernel import command_within
 
     rng = np.random.default_rng(950 + seed)
     p, n, tol = 12, 30, 1e-6
@@ -284,18 +290,18 @@ def test_row_screen_passes_only_where_the_scaled_row_test_does(seed):
             over = np.maximum(l - cv, cv - u) / d
             reference = bool(over.max() <= tol)
             spare = bool(over.max() <= tol - 1e-9)
-        screen = command_within_rows(v, C, l, u, tol)
+        screen = command_within(v, np.full(n, -np.inf), np.full(n, np.inf), C, l, u, tol)
         assert not screen or reference
         assert screen or not spare
 
 
 @pytest.mark.parametrize("seed", range(6))
 def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
-    """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve_packed, command_within_box and
-    command_within_rows give called one after the other (the compiled tick's one call), and refuses a non-finite
+    """kinematic_tick_packed gives bit for bit what form_qp, kinematic_solve and command_within give called one
+    after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
-    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, command_within_box,
-                                                  command_within_rows, form_qp, kinematic_pack,
+    from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, command_within, form_qp,
+                                                  kinematic_pack,
                                                   kinematic_reduced_packed, kinematic_solve, kinematic_tick_packed,
                                                   kinematic_views, rows_pack, task_rows)
 
@@ -321,13 +327,12 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
     states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
     s2 = states2[:nr]
-    form_qp(Js, es, rowp, diff, pw, prow, 10.0, 1e-6, x1.H, x1.g)
-    it1 = kinematic_solve(x1, 0, 0.002, 1e-6, 200, s1, r1, ws1, iws1, v1)
-    guard1 = it1 >= 1 and command_within_box(v1, x1.lb, x1.ub, 1e-6) and (
-        n_in == 0 or command_within_rows(v1, C, x1.l, x1.u, 1e-6))
     sfb, sib = rows_pack(mt, nv, prow)
     rows = task_rows.py_func(sfb, sib)
     rows.J[:], rows.e[:], rows.rowp[:], rows.pw[:] = Js, es, rowp, pw
+    form_qp(sfb, sib, diff, 10.0, 1e-6, x1.H, x1.g)
+    it1 = kinematic_solve(x1, 0, 0.002, 1e-6, 200, s1, r1, ws1, iws1, v1)
+    guard1 = it1 >= 1 and command_within(v1, x1.lb, x1.ub, C, x1.l, x1.u, 1e-6)
     it2, guard2 = kinematic_tick_packed(TickBuffers(fb2, ib2, sfb, sib, states2), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
                                         200, np.zeros(0), NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)

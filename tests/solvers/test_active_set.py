@@ -11,7 +11,7 @@ import pytest
 import qpsolvers
 
 from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, BlockSpace, QPLimits, QPWarmArrays,
-                                    dual_active_set, qp_ws_float_size, qp_ws_int_size, solve_qp_into, solve_qp_ws)
+                                    dual_active_set, qp_ws_sizes, solve_qp_into, solve_qp_ws)
 from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
@@ -112,7 +112,7 @@ def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
     qp = _block_qp(rng, nv, nf, m, p)
     other = _block_qp(rng, nv, nf, m, p)
     n = nv + nf
-    fsize, isize = qp_ws_float_size(n, m, p), qp_ws_int_size(n, m)
+    fsize, isize = qp_ws_sizes(n, m, p)
     answers = {}
     for max_iter in (200, 1):  # 1: an exit on the iteration cap (the QPs need more steps)
         fresh = answers[max_iter] = _into(qp, np.zeros(fsize), np.zeros(isize, np.int64), max_iter)

@@ -23,9 +23,9 @@ from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityCo
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.controllers.output_guard import command_fault
-from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within_box, command_within_rows,
-                                              contact_drift, contact_pair_drift, kinematic_finish_packed,
-                                              kinematic_reduced_packed, kinematic_tick_packed, kinematic_views)
+from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within, contact_drift,
+                                              contact_pair_drift, kinematic_finish_packed, kinematic_reduced_packed,
+                                              kinematic_tick_packed, kinematic_views)
 from wbc.solvers import DaqpBackend, FastBackend
 from wbc.solvers.hierarchy import independent_rows
 from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
@@ -212,8 +212,7 @@ class CompiledTick:
         rescued = it in _KERNEL_GAVE_UP and C.shape[0] > 0
         if rescued:
             it = self._fused_rescue(plan, v, dt)
-            guard = it >= 1 and command_within_box(v, lb, ub, tol) and (
-                C.shape[0] == 0 or command_within_rows(v, C, l, u, tol))
+            guard = it >= 1 and command_within(v, lb, ub, C, l, u, tol)
         if it < 1:
             return None  # the general path: diagnosis, relaxation, safe command
         if not guard and command_fault(v, lb, ub, C, l, u, tol):  # the compiled screens pass only where it returns ''

@@ -179,7 +179,7 @@ class VelocityQP:
         else:
             diff, pgain = soft.no_diff, 0.0
         if form_cost:
-            form_qp(soft.J, soft.e, soft.rowp, diff, soft.pw, soft.prow, pgain, self.damping, H, g)
+            form_qp(soft.fb, soft.ib, diff, pgain, self.damping, H, g)
         else:
             self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:
@@ -293,7 +293,7 @@ def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
             soft.own.append(task)
     prow = np.zeros(0, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
     soft.fb, soft.ib = rows_pack(row, nv, prow)  # what the compiled tick reads (kinematic_tick_packed)
-    soft.J, soft.e, soft.rowp, soft.pw, soft.prow = task_rows.py_func(soft.fb, soft.ib)  # numpy views
+    soft.J, soft.e, soft.rowp, soft.pw, soft.prow, _ = task_rows.py_func(soft.fb, soft.ib)  # numpy views
     soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
     soft.wr = np.zeros(row)
     soft.rows = []

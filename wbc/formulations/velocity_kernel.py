@@ -1,15 +1,7 @@
-"""Compiled (numba) kernels of the kinematic QP of :mod:`wbc.formulations.velocity`.
-
-:func:`form_qp` forms its cost (H, g) from the stacked task rows (:func:`weighted_rows`: a strict level's rows by
-the same formula). :func:`kinematic_solve` solves the assembled QP exactly: the floating base eliminated through a
-contact's 6 equality rows, the active-set solvers of :mod:`wbc.solvers.box_eq` and :mod:`wbc.solvers.active_set` on
-the reduced problem, the residuals of the original rows checked. :func:`kinematic_tick_packed` is the compiled tick
-in one call, on the arrays of :func:`kinematic_pack` and :func:`rows_pack` (two arrays each: every array argument
-costs a call from Python its unboxing); when its solver gives up, the reduced QP (:func:`kinematic_reduced_packed`)
-can be solved by another solver and the tick completed (:func:`kinematic_finish_packed`). :func:`contact_drift`
-(:func:`contact_pair_drift`), :func:`translation_gap` and :func:`rotation_gap` measure where a contact frame ends
-against where its row sent it. :func:`load_kinematic_kernels` compiles (or loads from the on-disk cache) the kernels
-once per process, at a controller's construction.
+"""Compiled (numba) kernels of the kinematic QP of :mod:`wbc.formulations.velocity`: its cost (:func:`form_qp`), its
+exact solve with the floating base eliminated (:func:`kinematic_solve`), the compiled tick in one call on two pairs
+of packed arrays (:func:`kinematic_tick_packed`: every array argument of a call from Python costs its unboxing) and
+where a contact frame ends against where its row sent it (:func:`contact_drift`).
 """
 
 from __future__ import annotations
@@ -19,29 +11,29 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
-from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
-from wbc.solvers.active_set import qp_ws_float_size, qp_ws_int_size, solve_qp_into
+from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
 from wbc.solvers.box_eq import solve_box_eq_ws
-from wbc.solvers.linalg import clip_box_into, equality_residual, row_violation
+from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within_box", "command_within_rows", "contact_drift", "contact_pair_drift",
-           "form_qp", "KernelBox", "KinematicQP", "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels",
-           "kinematic_reduced_packed", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
-           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows",
-           "TaskRows", "TickBuffers", "translation_gap", "weighted_rows"]
+__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
+           "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels", "kinematic_reduced_packed",
+           "kinematic_solve", "kinematic_tick_packed", "kinematic_views", "load_kinematic_parts", "NO_KERNEL_BOX",
+           "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows", "TaskRows", "TickBuffers", "translation_gap",
+           "weighted_rows"]
 
 #: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
 #: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays
 KinematicQP = namedtuple("KinematicQP", "H g A b C l u lb ub")
 
 #: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
-#: weight w, feed-forward of each row), pw (kp,) float64 posture weights and prow (kp,) int64 their velocity indices
-TaskRows = namedtuple("TaskRows", "J e rowp pw prow")
+#: weight w, feed-forward of each row), pw (kp,) float64 posture weights, prow (kp,) int64 their velocity indices and
+#: row (nv,), the cost formation's scratch
+TaskRows = namedtuple("TaskRows", "J e rowp pw prow row")
 
 #: the box arguments of :func:`kinematic_tick_packed`: ``idx`` (2, k) int64 and ``limits`` (3, k) float64 of a
 #: joint position limit (:meth:`wbc.constraints.JointPositionLimit.packed`) and ``const`` (2, nv) float64, the
@@ -139,7 +131,7 @@ def weighted_rows(Js, es, rowp, out_J, out_r):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
+def form_qp(sfb, sib, diff, pgain, damping, H, g):
     """The cost of the kinematic QP (:mod:`wbc.formulations.velocity`) from its stacked task rows, written into H
     and g (compiled; the one cost formation of every kinematic route):
 
@@ -150,22 +142,14 @@ def form_qp(Js, es, rowp, diff, pw, prow, pgain, damping, H, g):
     Each row enters as (√w_k J_k)ᵀ(√w_k J_k), whole rows of H at a time: H is exactly symmetric without a mirror.
 
     Args:
-        Js (mt, nv), es (mt,): stacked task Jacobians and errors; rowp (3, mt): gain K (1/s), weight w ≥ 0 and
-            feed-forward ė* of each row (a row with w = 0 is skipped).
-        diff (nv,): q ⊖ q* of the posture task; pw (kp,): its weights d; prow (kp,) int64: its velocity indices
-            i_a (kp = 0: no posture); pgain: its gain K_p (1/s).
-        damping: ε > 0. H (nv, nv), g (nv,): out.
+        sfb, sib: the arrays of :func:`rows_pack` (:class:`TaskRows`: J, e, rowp of each row — a row with w = 0 is
+            skipped —, the posture's weights d and velocity indices i_a, kp = 0: no posture).
+        diff (nv,): q ⊖ q* of the posture task; pgain: its gain K_p (1/s). damping: ε > 0. H (nv, nv), g (nv,): out.
 
     Returns:
         trace(H) + Σ g: finite exactly when every number that entered H and g is (NaN and ±inf propagate into it).
     """
-    return _form_qp_into(TaskRows(Js, es, rowp, pw, prow), diff, pgain, damping, H, g, np.empty(H.shape[0]))
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _form_qp_into(rows, diff, pgain, damping, H, g, row):
-    """:func:`form_qp` on ``rows`` (:class:`TaskRows`) with its scratch row (nv,) given."""
-    Js, es, rowp, pw, prow = rows
+    Js, es, rowp, pw, prow, row = task_rows(sfb, sib)
     n = H.shape[0]
     g[:] = 0.0
     first = True  # H not yet written: the first weighted row's products are added to 0.0 row by row (no memset)
@@ -205,50 +189,34 @@ def _form_qp_into(rows, diff, pgain, damping, H, g, row):
 @nb.njit(cache=True, nogil=True)
 def _views_size(n, nr, mr, p):
     """Length of the part of the float workspace that :func:`_solve_views` lays out."""
-    return (n + 2 * nr * nr + 7 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
+    return (n + 2 * nr * nr + 6 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
 
 
-@nb.njit(cache=True, nogil=True)
-def _scratch_views(ws, n, nr, mr, p):
-    """The float workspace's scratch after :func:`_solve_views`' part: the row buffer (n,) of the cost formation
-    and :func:`wbc.solvers.active_set.solve_qp_into`'s workspace."""
-    o = _views_size(n, nr, mr, p)
-    return ws[o:o + n], ws[o + n:]
-
-
-@register_jitable(inline="always")  # inlined in numba IR: no call, no reference counting of its views
-def _rows(buf, o, k, n):
-    """buf[o:o + k n] as k rows of n (a view), and the offset after them (plain Python outside numba)."""
-    return buf[o:o + k * n].reshape((k, n)), o + k * n
-
-
-@register_jitable(inline="always")
-def _vec(buf, o, n):
-    """buf[o:o + n] (a view) and the offset after it."""
-    return buf[o:o + n], o + n
-
-
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _solve_views(ws, n, nr, mr, p):
-    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for n
-    velocities, nr = n − 6 (elimination) or n reduced ones, mr reduced equality and p inequality rows."""
-    H, o = _rows(ws, n, nr, nr)
-    L, o = _rows(ws, o, nr, nr)
-    vec, o = _rows(ws, o, 7, nr)  # g, lbr, ubr, row, x, z, t
-    Tc, o = _rows(ws, o, 6, nr + 1)
-    Eb, o = _rows(ws, o, 6, 6)
-    V, o = _rows(ws, o, 6, nr)
-    wb, o = _vec(ws, o, 6)
-    Cr, o = _rows(ws, o, p, nr)
-    rows, o = _rows(ws, o, 3, p)  # lr, ur, mu
-    Ar, o = _rows(ws, o, mr, nr)
-    eqs, o = _rows(ws, o, 2, mr)  # br, nu
-    Y, o = _rows(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
-    S, o = _rows(ws, o, mr, mr)
-    rhs, o = _vec(ws, o, mr)
-    return (H, L, vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], Tc, Eb, V, wb, Cr, rows[0], rows[1],
-            rows[2], Ar, eqs[0], eqs[1], Y, S, rhs, ws[o:o + 1])
+def _solve_views(qp, er, ws):
+    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for ``qp`` and ``er``:
+    the reduced QP (a plain tuple in :class:`KinematicQP`'s order), L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs,
+    eqres and the solver's workspace (the rest of ``ws``)."""
+    n0 = 6 if er >= 0 else 0
+    n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
+    nr = n - n0
+    H, o = carve2(ws, n, nr, nr)
+    L, o = carve2(ws, o, nr, nr)
+    vec, o = carve2(ws, o, 6, nr)  # g, lbr, ubr, x, z, t
+    Tc, o = carve2(ws, o, 6, nr + 1)
+    Eb, o = carve2(ws, o, 6, 6)
+    V, o = carve2(ws, o, 6, nr)
+    wb, o = carve(ws, o, 6)
+    Cr, o = carve2(ws, o, p, nr)
+    rows, o = carve2(ws, o, 3, p)  # lr, ur, mu
+    Ar, o = carve2(ws, o, mr, nr)
+    eqs, o = carve2(ws, o, 2, mr)  # br, nu
+    Y, o = carve2(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
+    S, o = carve2(ws, o, mr, mr)
+    rhs, o = carve(ws, o, mr)
+    return ((H, vec[0], Ar, eqs[0], Cr, rows[0], rows[1], vec[1], vec[2]), L, vec[3], vec[4], vec[5], Tc, Eb, V, wb,
+            rows[2], eqs[1], Y, S, rhs, ws[o:o + 1], ws[o + 1:])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -298,11 +266,8 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
-    """The exact optimum of the assembled kinematic QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`)
-
-        min_v ½ vᵀHv + gᵀv   s.t.  A v = b,  l ≤ C v ≤ u,  lb ≤ v ≤ ub,
-
-    with the floating base eliminated (compiled; the arguments are read, never written).
+    """The exact optimum of the assembled kinematic QP (:class:`KinematicQP`) with the floating base eliminated
+    (the arguments are read, never written).
 
     Floating-base elimination (``er`` ≥ 0): the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, whose
     base block E_b is invertible) give v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), so the problem is solved exactly
@@ -310,7 +275,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
     g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
     unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
-    :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; every KKT condition of
+    :func:`~wbc.solvers.active_set.solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of
     the reduced problem holds at exit, and the residuals of all rows of the original one are checked against
     ``tolerance``.
 
@@ -330,10 +295,9 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     n0 = 6 if er >= 0 else 0
     nr = n - n0
     neq = A.shape[0]
-    mr = neq - n0
     p = C.shape[0]
-    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _solve_views(ws, n, nr, mr, p)
+    red, L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs, eqres, qpws = _solve_views(qp, er, ws)
+    Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr = red
     for i in range(n0):
         if lb[i] > -np.inf or ub[i] < np.inf:
             return NOT_REDUCIBLE
@@ -363,8 +327,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
                              (iws[:nr], L, Y, S, t, rhs))
     else:
         # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
-        it = solve_qp_into((Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr), (state, rstate, x, nu, mu, z, eqres),
-                           (max_iter, 1e-12, 1e-12, 1e-24), _scratch_views(ws, n, nr, mr, p)[1], iws)
+        it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
     if it < 1:
         state[:] = 0
         rstate[:] = 0
@@ -414,9 +377,9 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     kinematic QP of nv velocities, ``n_eq`` equality and ``n_in`` inequality rows, eliminating the floating base
     through the equality rows from ``er`` (−1: none): the QP's buffers and :func:`kinematic_solve`'s workspaces."""
     nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
-    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + nv
-                  + qp_ws_float_size(nr, mr, n_in))
-    ib = np.zeros(4 + max(nr, qp_ws_int_size(nr, mr)), np.int64)
+    fsize, isize = qp_ws_sizes(nr, mr, n_in)
+    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + fsize)
+    ib = np.zeros(4 + max(nr, isize), np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     return fb, ib
 
@@ -427,14 +390,14 @@ def kinematic_views(fb, ib):
     as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
-    H, o = _rows(fb, 0, nv, nv)
-    g, o = _vec(fb, o, nv)
-    A, o = _rows(fb, o, neq, nv)
-    b, o = _vec(fb, o, neq)
-    C, o = _rows(fb, o, p, nv)
-    l, o = _vec(fb, o, p)
-    u, o = _vec(fb, o, p)
-    box, o = _rows(fb, o, 2, nv)
+    H, o = carve2(fb, 0, nv, nv)
+    g, o = carve(fb, o, nv)
+    A, o = carve2(fb, o, neq, nv)
+    b, o = carve(fb, o, neq)
+    C, o = carve2(fb, o, p, nv)
+    l, o = carve(fb, o, p)
+    u, o = carve(fb, o, p)
+    box, o = carve2(fb, o, 2, nv)
     return KinematicQP(H, g, A, b, C, l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
@@ -442,7 +405,7 @@ def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarra
     """The float and int64 arrays of mt stacked task rows of nv velocities that the compiled tick reads (their
     parts: :func:`task_rows`), zeroed but for ``prow`` (kp,), the velocity indices of a posture diagonal."""
     prow = np.asarray(prow, np.int64)
-    return np.zeros(mt * nv + 4 * mt + prow.size), np.concatenate((np.array([mt, nv, prow.size], np.int64), prow))
+    return np.zeros(mt * nv + 4 * mt + prow.size + nv), np.concatenate((np.array([mt, nv, prow.size], np.int64), prow))
 
 
 @nb.njit(cache=True, nogil=True)
@@ -451,7 +414,7 @@ def task_rows(sfb, sib):
     mt, nv, kp = sib[0], sib[1], sib[2]
     o = mt * nv
     return TaskRows(sfb[:o].reshape((mt, nv)), sfb[o:o + mt], sfb[o + mt:o + 4 * mt].reshape((3, mt)),
-                    sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp])
+                    sfb[o + 4 * mt:o + 4 * mt + kp], sib[3:3 + kp], sfb[o + 4 * mt + kp:o + 4 * mt + kp + nv])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, **NO_NRT)  # GIL kept: releasing it costs more per call than a thread could gain
@@ -461,7 +424,7 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
     :func:`wbc.constraints.limits.intersect_position_bounds` (q (nq,), ``box.idx``, ``box.limits``, dt) (``const``
     (0, 0): lb, ub as assembled); :func:`form_qp` into H, g (``diff`` … ``damping`` as there); its check and
     :func:`all_finite` on b; :func:`kinematic_solve` (working sets ``bufs.states`` = state (nr,) then rstate (p,));
-    :func:`command_within_box` and :func:`command_within_rows` on v.
+    :func:`command_within` on v.
 
     Returns:
         (code, guard): code = ``NONFINITE_RHS`` (a number of the cost or of b is NaN or inf: nothing solved,
@@ -476,18 +439,15 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
             lb[i] = const_box[0, i]
             ub[i] = const_box[1, i]
         intersect_position_bounds(q, box.idx, box.limits, dt, lb, ub)
-    n0 = 6 if er >= 0 else 0
-    row = _scratch_views(ws, H.shape[0], H.shape[0] - n0, A.shape[0] - n0, C.shape[0])[0]
-    check = _form_qp_into(task_rows(bufs.sfb, bufs.sib), diff, pgain, damping, H, g, row)
+    check = form_qp(bufs.sfb, bufs.sib, diff, pgain, damping, H, g)
     if not (np.isfinite(check) and all_finite(b)):
         return NONFINITE_RHS, False
-    nr = H.shape[0] - n0
+    nr = H.shape[0] - (6 if er >= 0 else 0)
     states = bufs.states
     it = kinematic_solve(qp, er, dt, tolerance, max_iter, states[:nr], states[nr:], ws, iws, v)
     if it < 1:
         return it, False
-    return it, command_within_box(v, lb, ub, tolerance) and (C.shape[0] == 0 or
-                                                             command_within_rows(v, C, l, u, tolerance))
+    return it, command_within(v, lb, ub, C, l, u, tolerance)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -496,12 +456,8 @@ def kinematic_reduced_packed(fb, ib):
     ``NOT_REDUCIBLE``), views into ``fb``: a :class:`KinematicQP` in the joint velocities x (nr = nv − 6 variables
     and mr = n_eq − 6 equality rows with the floating-base elimination, else nv and n_eq). Its solution x, given to
     :func:`kinematic_finish_packed`, completes the tick."""
-    qp, _, ws, iws, er = kinematic_views(fb, ib)
-    n0 = 6 if er >= 0 else 0
-    nr = qp.A.shape[1] - n0
-    (Hr, L, gr, lbr, ubr, row, x, z, t, Tc, Eb, V, wb, Cr, lr, ur, mu, Ar, br, nu, Y, S, rhs,
-     eqres) = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])
-    return KinematicQP(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
+    qp, _, ws, _, er = kinematic_views(fb, ib)
+    return KinematicQP(*_solve_views(qp, er, ws)[0])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -509,11 +465,8 @@ def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
     """Complete a :func:`kinematic_solve` whose solver gave up, from a solution x (nr,) of
     :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; the base velocity recovered through the
     eliminating rows) and the check of every original row against ``tolerance`` (True: passed, ws[:nv] = v·dt)."""
-    qp, _, ws, iws, er = kinematic_views(fb, ib)
-    n0 = 6 if er >= 0 else 0
-    nr = qp.A.shape[1] - n0
-    Tc = _solve_views(ws, qp.A.shape[1], nr, qp.A.shape[0] - n0, qp.C.shape[0])[9]
-    return _finish(qp, Tc, x, n0, dt, tolerance, ws, v)
+    qp, _, ws, _, er = kinematic_views(fb, ib)
+    return _finish(qp, _solve_views(qp, er, ws)[5], x, 6 if er >= 0 else 0, dt, tolerance, ws, v)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
@@ -572,13 +525,17 @@ def all_finite(x):
 
 
 @nb.njit(cache=True, nogil=True)
-def command_within_box(v, lb, ub, tolerance):
-    """True when every v_i is finite with |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance and
-    v_i − ub_i ≤ tolerance (the unscaled box test of the kinematic controller's output guard, the same elementwise
-    numbers); False otherwise, including NaN anywhere (the guard then runs its full scaled test).
+def command_within(v, lb, ub, C, l, u, tolerance):
+    """The compiled screens of the kinematic controller's output guard: True when every v_i is finite with
+    |v_i| < 1e100 (so that v·v is finite) and lb_i − v_i ≤ tolerance, v_i − ub_i ≤ tolerance (its unscaled box test,
+    the same elementwise numbers), and every row holds with a rounding margin: max(l_i − c_i, c_i − u_i) / d_i +
+    1e-12 ≤ tolerance, c_i = C_i v summed here, d_i = max(1, |C_i| |v|, |l_i|, |u_i|) (finite bounds only; its scaled
+    row test, whose sums, in another order, differ from these by far less than the margin). False otherwise,
+    including NaN or inf anywhere (the guard then runs its full test).
 
     Args:
-        v, lb, ub (n,): command and box (rad/s, m/s; bounds may be ±inf). tolerance: largest excess accepted.
+        v (n,): command (rad/s, m/s). lb, ub (n,): box. C (p, n), l, u (p,): rows. Bounds may be ±inf.
+        tolerance: largest excess (box) and scaled excess (rows) accepted.
     """
     for i in range(v.shape[0]):
         x = v[i]
@@ -586,20 +543,6 @@ def command_within_box(v, lb, ub, tolerance):
             return False
         if not (lb[i] - x <= tolerance and x - ub[i] <= tolerance):
             return False
-    return True
-
-
-@nb.njit(cache=True, nogil=True)
-def command_within_rows(v, C, l, u, tolerance):
-    """True when every inequality row i holds with a rounding margin: max(l_i − c_i, c_i − u_i) / d_i + 1e-12 ≤
-    tolerance, c_i = C_i v summed here, d_i = max(1, |C_i| |v|, |l_i|, |u_i|) (finite bounds only) — the scaled row
-    test of the kinematic controller's output guard, whose sums (another summation order) differ from these by far
-    less than the margin; False otherwise, including NaN or inf anywhere (the guard then runs its full test).
-
-    Args:
-        v (n,): command. C (p, n), l (p,), u (p,): rows and bounds (bounds may be ±inf). tolerance: largest scaled
-            excess accepted.
-    """
     for i in range(C.shape[0]):
         c = 0.0
         s = 0.0
@@ -629,8 +572,7 @@ def load_kinematic_parts() -> float:
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     fb, ib = kinematic_pack(7, 6, 0, 0)
     qp = kinematic_views.py_func(fb, ib)[0]
-    form_qp(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.zeros(7), np.zeros(0), np.zeros(0, np.int64), 0.0,
-            1e-6, qp.H, qp.g)
+    form_qp(*rows_pack(1, 7, np.zeros(0, np.int64)), np.zeros(7), 0.0, 1e-6, qp.H, qp.g)
     weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
     kinematic_reduced_packed(fb, ib)
     kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
@@ -642,8 +584,7 @@ def load_kinematic_parts() -> float:
     frame = (np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3))  # Pinocchio's F-ordered rotation
     contact_pair_drift(frame, frame, np.zeros((2, 6)), np.zeros(12), 0, 6, 0.0, 0.0, 0.1)
     all_finite(qp.b)
-    command_within_box(np.zeros(7), qp.lb, qp.ub, 1e-6)
-    command_within_rows(np.zeros(7), np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
+    command_within(np.zeros(7), qp.lb, qp.ub, np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     return time.perf_counter() - t0

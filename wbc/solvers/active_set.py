@@ -25,15 +25,15 @@ from numba.extending import overload
 
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
-from wbc.solvers.active_set_block import (block_add, block_direction, block_eqp, block_prepare, block_remove,
-                                          block_start, block_target)
-from wbc.solvers.linalg import (backward_substitution, carve2, cholesky_lower, forward_substitution,
+from wbc.solvers.active_set_block import (block_direction, block_eqp, block_prepare, block_start, block_target,
+                                          block_update)
+from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_lower, forward_substitution,
                                 primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
 __all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "QPLimits", "QPWarmArrays",
-           "dual_active_set", "load_active_set_kernels", "qp_ws_float_size", "qp_ws_int_size", "solve_qp_into",
+           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into",
            "solve_qp_ws"]
 
 #: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
@@ -50,7 +50,7 @@ BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c t
 ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
 ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
                                                     "refresh start_cost verify_tol")
-#: the arrays and limits of :func:`solve_qp_ws` / :func:`solve_qp_into` (its Args); a plain tuple in their order is
+#: the arrays and limits of :func:`solve_qp_ws` (its Args); a plain tuple in their order is
 #: taken as well (numba types it faster than a namedtuple: the ``fast`` backend passes one)
 QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
 QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
@@ -77,8 +77,12 @@ def _normal_image(L, n, C, q, is_row, out):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _ws_add(Yw, Sm, mw, y, n):
-    """Append y (n,) as working row mw of Y = L⁻¹Nᵀ and its products to S = Y Yᵀ (unfactored)."""
+def _ws_push(qp, sp, mw, kd, q, side):
+    """Append constraint q of kind kd (0 equality row, 1 row of C, 2 bound) held at ``side`` as working slot mw: its
+    image y = L⁻¹a (in sp.y) as row mw of Y = L⁻¹Nᵀ and its products to S = Y Yᵀ (unfactored). Returns mw + 1."""
+    b, l, u, lb, ub = qp[3], qp[6], qp[7], qp[8], qp[9]
+    Yw, Sm, y = sp.Yw, sp.Sm, sp.y
+    n = y.shape[0]
     for j in range(n):
         Yw[mw, j] = y[j]
     for k in range(mw + 1):
@@ -87,22 +91,14 @@ def _ws_add(Yw, Sm, mw, y, n):
             s += Yw[k, j] * y[j]
         Sm[mw, k] = s
         Sm[k, mw] = s
-
-
-@nb.njit(cache=True, nogil=True)
-def _ws_remove(k, mw, n, Yw, Sm, kind, idx, side, bw):
-    """Remove working entry k (the last one takes its place); returns the new size."""
-    e = mw - 1
-    if k != e:
-        for j in range(n):
-            Yw[k, j] = Yw[e, j]
-        for j in range(mw):
-            Sm[k, j] = Sm[e, j]
-        for j in range(mw):
-            Sm[j, k] = Sm[j, e]
-        Sm[k, k] = Sm[e, e]
-        kind[k], idx[k], side[k], bw[k] = kind[e], idx[e], side[e], bw[e]
-    return e
+    if kd == 0:
+        bw = b[q]
+    elif kd == 1:
+        bw = l[q] if side < 0 else u[q]
+    else:
+        bw = lb[q] if side < 0 else ub[q]
+    sp.kind[mw], sp.idx[mw], sp.side[mw], sp.bw[mw] = kd, q, side, bw
+    return mw + 1
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -120,20 +116,6 @@ def _ws_factor(Sm, Sf, mw, rank_tol):
         if Sf[k, k] * Sf[k, k] <= rank_tol * smax:
             return False
     return True
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _ws_eqp(L, t0, Yw, Sf, bw, mw, n, nuw, x):
-    """Equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
-    H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν); ν in nuw[:mw] (Hx + g + Nᵀν = 0)."""
-    for k in range(mw):
-        s = bw[k]
-        for j in range(n):
-            s += Yw[k, j] * t0[j]
-        nuw[k] = -s
-    forward_substitution(Sf, mw, nuw)
-    backward_substitution(Sf, mw, nuw)
-    primal_from_multipliers(L, n, t0, Yw, nuw, mw, x)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -157,48 +139,46 @@ def _dense_prepare(qp, sp):
 def _dense_start(qp, sp, state, rstate):
     """The working set from ``state``/``rstate`` (slots: equality rows, held rows of C, held bounds) and its
     factor; its size, or DEPENDENT_EQUALITIES."""
-    H, g, A, b, m, C, l, u, lb, ub = qp
-    n = H.shape[0]
+    A, m, C = qp[2], qp[4], qp[5]
+    n = qp[0].shape[0]
     p = C.shape[0]
-    L, Yw, Sm, y, bw, kind, idx, side = sp.L, sp.Yw, sp.Sm, sp.y, sp.bw, sp.kind, sp.idx, sp.side
-    K = kind.shape[0]
+    L, y = sp.L, sp.y
+    K = sp.kind.shape[0]
     mw = 0
     for k in range(m):
-        for j in range(n):
-            y[j] = A[k, j]
-        forward_substitution(L, n, y)
-        _ws_add(Yw, Sm, mw, y, n)
-        kind[mw], idx[mw], side[mw], bw[mw] = 0, k, 0, b[k]
-        mw += 1
+        _normal_image(L, n, A, k, True, y)
+        mw = _ws_push(qp, sp, mw, 0, k, 0)
     for q in range(p):
         if rstate[q] != 0:
             _normal_image(L, n, C, q, True, y)
-            _ws_add(Yw, Sm, mw, y, n)
-            kind[mw], idx[mw], side[mw] = 1, q, rstate[q]
-            bw[mw] = l[q] if rstate[q] < 0 else u[q]
-            mw += 1
+            mw = _ws_push(qp, sp, mw, 1, q, rstate[q])
             if mw == K:
                 break
     for i in range(n):
         if state[i] != 0 and mw < K:
             _normal_image(L, n, C, i, False, y)
-            _ws_add(Yw, Sm, mw, y, n)
-            kind[mw], idx[mw], side[mw] = 2, i, state[i]
-            bw[mw] = lb[i] if state[i] < 0 else ub[i]
-            mw += 1
-    if mw <= n and _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
+            mw = _ws_push(qp, sp, mw, 2, i, state[i])
+    if mw <= n and _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
         return mw
     return DEPENDENT_EQUALITIES
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
-    """:func:`_ws_eqp` on the working set: ν of the equality rows in nu[:m], the oriented multipliers side·ν of the
-    working rows and bounds in lam_r, lam_b."""
+    """The equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
+    H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν) (Hx + g + Nᵀν = 0); ν of the equality rows
+    in nu[:m], the oriented multipliers side·ν of the working rows and bounds in lam_r, lam_b."""
     n = x.shape[0]
     m = qp[4]
-    nuw, kind, idx, side = sp.nuw, sp.kind, sp.idx, sp.side
-    _ws_eqp(sp.L, sp.t0, sp.Yw, sp.Sf, sp.bw, mw, n, nuw, x)
+    Yw, t0, nuw, kind, idx, side = sp.Yw, sp.t0, sp.nuw, sp.kind, sp.idx, sp.side
+    for k in range(mw):
+        s = sp.bw[k]
+        for j in range(n):
+            s += Yw[k, j] * t0[j]
+        nuw[k] = -s
+    forward_substitution(sp.Sf, mw, nuw)
+    backward_substitution(sp.Sf, mw, nuw)
+    primal_from_multipliers(sp.L, n, t0, Yw, nuw, mw, x)
     for k in range(m):
         nu[k] = nuw[k]
     for k in range(m, mw):
@@ -259,41 +239,35 @@ def _dense_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_add(qp, sp, mw, state, rstate, pi, pside):
-    """Append constraint ``pi`` (its image y from :func:`_dense_target`) held at ``pside``; refactor S. The new
-    size, or DEPENDENT_EQUALITIES."""
-    l, u, lb, ub = qp[6], qp[7], qp[8], qp[9]
-    n = sp.y.shape[0]
-    if mw == sp.kind.shape[0]:
-        return DEPENDENT_EQUALITIES
-    _ws_add(sp.Yw, sp.Sm, mw, sp.y, n)
-    if pi >= n:
-        q = pi - n
-        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 1, q, l[q] if pside < 0 else u[q]
-    else:
-        sp.kind[mw], sp.idx[mw], sp.bw[mw] = 2, pi, lb[pi] if pside < 0 else ub[pi]
-    sp.side[mw] = pside
-    mw += 1
-    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
-        return DEPENDENT_EQUALITIES
-    return mw
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_remove(qp, sp, mw, state, rstate, ci):
-    """Remove constraint ``ci`` (a bound < n, else the row ci − n) from the working slots; refactor S. The new
+def _dense_update(qp, sp, mw, state, rstate, ci, pside):
+    """Constraint ``ci`` (a bound < n, else the row ci − n) joins the working slots held at ``pside`` (its image y
+    from :func:`_dense_target`), or leaves them (``pside`` 0; the last slot takes its place); refactor S. The new
     size, or DEPENDENT_EQUALITIES."""
     n = sp.y.shape[0]
-    m = qp[4]
+    Yw, Sm, kind, idx, side, bw = sp.Yw, sp.Sm, sp.kind, sp.idx, sp.side, sp.bw
     kd, q = (1, ci - n) if ci >= n else (2, ci)
-    for k in range(m, mw):
-        if sp.kind[k] == kd and sp.idx[k] == q:
-            mw = _ws_remove(k, mw, n, sp.Yw, sp.Sm, sp.kind, sp.idx, sp.side, sp.bw)
-            break
-    if not _ws_factor(sp.Sm, sp.Sf, mw, sp.rank_tol):
+    if pside != 0:
+        if mw == kind.shape[0]:
+            return DEPENDENT_EQUALITIES
+        mw = _ws_push(qp, sp, mw, kd, q, pside)
+    else:
+        for k in range(qp[4], mw):
+            if kind[k] == kd and idx[k] == q:
+                e = mw - 1
+                if k != e:
+                    for j in range(n):
+                        Yw[k, j] = Yw[e, j]
+                    for j in range(mw):
+                        Sm[k, j] = Sm[e, j]
+                    for j in range(mw):
+                        Sm[j, k] = Sm[j, e]
+                    Sm[k, k] = Sm[e, e]
+                    kind[k], idx[k], side[k], bw[k] = kind[e], idx[e], side[e], bw[e]
+                mw = e
+                break
+    if not _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
         return DEPENDENT_EQUALITIES
     return mw
-
 
 
 def _by_space(dense, block):
@@ -316,8 +290,7 @@ _ls_start = _by_space(_dense_start, block_start)
 _ls_eqp = _by_space(_dense_eqp, block_eqp)
 _ls_target = _by_space(_dense_target, block_target)
 _ls_direction = _by_space(_dense_direction, block_direction)
-_ls_add = _by_space(_dense_add, block_add)
-_ls_remove = _by_space(_dense_remove, block_remove)
+_ls_update = _by_space(_dense_update, block_update)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -450,7 +423,7 @@ def dual_active_set(qp, space, arrays, settings):
                     state[kw] = 0
                 else:
                     rstate[kw - n] = 0
-                mw = _ls_remove(qp, space, mw, state, rstate, kw)
+                mw = _ls_update(qp, space, mw, state, rstate, kw, 0)
                 continue
             need_eqp = False
             exact = True
@@ -531,7 +504,7 @@ def dual_active_set(qp, space, arrays, settings):
                 else:
                     rstate[pi - n] = pside
                     lam_r[pi - n] = lam_p
-                mw = _ls_add(qp, space, mw, state, rstate, pi, pside)
+                mw = _ls_update(qp, space, mw, state, rstate, pi, pside)
                 if mw < 0:
                     return mw
                 if refresh:
@@ -545,7 +518,7 @@ def dual_active_set(qp, space, arrays, settings):
             else:
                 rstate[blk - n] = 0
                 lam_r[blk - n] = 0.0
-            mw = _ls_remove(qp, space, mw, state, rstate, blk)
+            mw = _ls_update(qp, space, mw, state, rstate, blk, 0)
             if mw < 0:
                 return mw
     # outputs: the held bounds exactly, x clipped into the bounds, residuals, multipliers, the KKT check
@@ -575,6 +548,13 @@ def dual_active_set(qp, space, arrays, settings):
     return max(steps, 1)
 
 
+@nb.njit(cache=True, nogil=True)
+def qp_ws_sizes(n, m, p):
+    """Lengths of the float and int64 workspaces of :func:`solve_qp_into` for n variables, m equality, p other rows."""
+    K = n + m + 1
+    return n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4, 3 * K
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_ws(qp, arrays, limits):
     """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest).
@@ -591,31 +571,14 @@ def solve_qp_ws(qp, arrays, limits):
     Returns:
         steps (≥ 1) on success, x inside [lb, ub] exactly; or a negative exit code.
     """
-    n = qp[0].shape[0]
-    m = qp[2].shape[0]
-    p = qp[4].shape[0]
-    fw = np.empty(qp_ws_float_size(n, m, p))  # one allocation, views in solve_qp_into
-    iw = np.empty(qp_ws_int_size(n, m), np.int64)
-    return solve_qp_into(qp, arrays, limits, fw, iw)
-
-
-@nb.njit(cache=True, nogil=True)
-def qp_ws_float_size(n, m, p):
-    """Length of the float workspace of :func:`solve_qp_into` for n variables, m equality and p inequality rows."""
-    K = n + m + 1
-    return n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4
-
-
-@nb.njit(cache=True, nogil=True)
-def qp_ws_int_size(n, m):
-    """Length of the int64 workspace of :func:`solve_qp_into` for n variables and m equality rows."""
-    return 3 * (n + m + 1)
+    fsize, isize = qp_ws_sizes(qp[0].shape[0], qp[2].shape[0], qp[4].shape[0])
+    return solve_qp_into(qp, arrays, limits, np.empty(fsize), np.empty(isize, np.int64))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_into(qp, arrays, limits, fw, iw):
-    """:func:`solve_qp_ws` in the caller's workspaces: fw (≥ :func:`qp_ws_float_size` (n, m, p),) float64 and
-    iw (≥ :func:`qp_ws_int_size` (n, m),) int64 (no allocation). Same arguments otherwise, same returns."""
+    """:func:`solve_qp_ws` in the caller's float64 and int64 workspaces fw, iw (at least :func:`qp_ws_sizes`
+    (n, m, p) long): no allocation (a kernel compiled without numba's runtime may call it)."""
     H, g, A, b, C, l, u, lb, ub = qp
     state, rstate, x, nu, mu, z, eq_residual = arrays
     max_iter, primal_tol, dual_tol, rank_tol = limits
@@ -627,24 +590,16 @@ def solve_qp_into(qp, arrays, limits, fw, iw):
     Yw, o = carve2(fw, o, K, n)
     Sm, o = carve2(fw, o, K, K)
     Sf, o = carve2(fw, o, K, K)
-    t0 = fw[o:o + n]
-    y = fw[o + n:o + 2 * n]
-    w = fw[o + 2 * n:o + 3 * n]
-    zd = fw[o + 3 * n:o + 4 * n]
-    lam_b = fw[o + 4 * n:o + 5 * n]
-    rb = fw[o + 5 * n:o + 6 * n]
-    o += 6 * n
-    tmp = fw[o:o + K]
-    r = fw[o + K:o + 2 * K]
-    bw = fw[o + 2 * K:o + 3 * K]
-    nuw = fw[o + 3 * K:o + 4 * K]
-    o += 4 * K
-    lam_r = fw[o:o + p]
-    sc = fw[o + p:o + p + 1]
-    out = fw[o + p + 1:o + p + 4]
-    space = DenseSpace(L, Yw, Sm, Sf, t0, y, w, tmp, r, bw, nuw, iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
+    vn, o = carve2(fw, o, 6, n)  # t0, y, w, zd, lam_b, rb
+    vk, o = carve2(fw, o, 4, K)  # tmp, r, bw, nuw
+    lam_r, o = carve(fw, o, p)
+    sc, o = carve(fw, o, 1)
+    out, o = carve(fw, o, 3)
+    space = DenseSpace(L, Yw, Sm, Sf, vn[0], vn[1], vn[2], vk[0], vk[1], vk[2], vk[3], iw[:K], iw[K:2 * K],
+                       iw[2 * K:3 * K], sc, rank_tol)
+    lam_b = vn[4]
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out),
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, vn[3], vn[5], out),
                          ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
     eq_residual[0] = out[0]
     for i in range(n):
@@ -657,9 +612,9 @@ def load_active_set_kernels() -> None:
     """Compile (or load), once per process, :func:`solve_qp_into` for its callers' argument types (plain tuples):
     the ``fast`` backend's and the kinematic tick's loaders run after this one and link this version."""
     n, m, p = 2, 1, 1
+    fsize, isize = qp_ws_sizes(n, m, p)
     solve_qp_into((np.eye(n), np.ones(n), np.ones((m, n)), np.ones(m), np.ones((p, n)), -np.ones(p), np.ones(p),
                    -np.ones(n), np.ones(n)),
                   (np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m), np.empty(p), np.empty(n),
                    np.empty(1)),
-                  (10, 1e-12, 1e-12, 1e-24), np.empty(qp_ws_float_size(n, m, p)),
-                  np.empty(qp_ws_int_size(n, m), np.int64))
+                  (10, 1e-12, 1e-12, 1e-24), np.empty(fsize), np.empty(isize, np.int64))

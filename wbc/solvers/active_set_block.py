@@ -13,8 +13,7 @@ from wbc.compiled import FASTMATH
 from wbc.solvers.linalg import backward_substitution, block_cost_gradient, cholesky_lower, forward_substitution
 from wbc.solvers.status import DEPENDENT_EQUALITIES, NOT_POSITIVE_DEFINITE
 
-__all__ = ["block_add", "block_direction", "block_eqp", "block_prepare", "block_remove", "block_start",
-           "block_target"]
+__all__ = ["block_direction", "block_eqp", "block_prepare", "block_start", "block_target", "block_update"]
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -229,14 +228,8 @@ def block_start(qp, sp, state, rstate):
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def block_add(qp, sp, mw, state, rstate, pi, pside):
-    """Refactor after constraint ``pi`` joined ``state``/``rstate``."""
-    return block_start(qp, sp, state, rstate)
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def block_remove(qp, sp, mw, state, rstate, ci):
-    """Refactor after constraint ``ci`` left ``state``/``rstate``."""
+def block_update(qp, sp, mw, state, rstate, ci, pside):
+    """Refactor after constraint ``ci`` joined (``pside`` ≠ 0) or left ``state``/``rstate``."""
     return block_start(qp, sp, state, rstate)
 
 

@@ -10,6 +10,7 @@ import math
 
 import numba as nb
 import numpy as np
+from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH
 
@@ -18,13 +19,13 @@ __all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "cl
            "scaled_row_violation", "weighted_normal_equations"]
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
+@register_jitable(inline="always")  # inlined in numba IR (no call, no reference counting); plain Python outside numba
 def carve(buf, o, n):
     """The (n,) view buf[o:o + n] of a flat workspace and the next offset o + n (no copy)."""
     return buf[o:o + n], o + n
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
+@register_jitable(inline="always")
 def carve2(buf, o, rows, cols):
     """The (rows, cols) C-order view of buf[o:o + rows · cols] of a flat workspace and the next offset (no copy)."""
     return buf[o:o + rows * cols].reshape((rows, cols)), o + rows * cols
