@@ -272,6 +272,7 @@ class InverseDynamicsQP:
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
                               jl.speed_horizon, 0.0])
         self._par_written = None  # the values _assemble last wrote into _par
+        self._qp_views: dict[int, QPData] = {}  # _assemble's QPData of these buffers by equality row count
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
         self._compiled = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
                           IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
@@ -564,7 +565,11 @@ class InverseDynamicsQP:
         if m == PROJECT_CONTACT_RHS:  # build drops the dependent directions
             return QPData(*self.build(state, dt, gathered=True)), "kernel: dependent contact rows"
         self._m = m
-        return QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub), ""
+        qp = self._qp_views.get(m)
+        if qp is None:  # views of the buffers, one per equality row count (the buffers live until _new_compiled)
+            qp = self._qp_views[m] = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                            self._lb, self._ub)
+        return qp, ""
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration

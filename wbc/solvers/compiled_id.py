@@ -329,6 +329,7 @@ class CompiledIDSolver:
         self.gave_up = False
         self.cap = self.max_iterations  # the last call's iteration cap
         self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
+        self._solution = QPSolution(self.x, self.name)  # every answer: x is this view of the buffer
 
     def solve(self, qp: QPData) -> QPSolution:
         """The exact optimum of ``qp`` (x a view of this solver's buffer, overwritten by the next call).
@@ -345,7 +346,7 @@ class CompiledIDSolver:
         else:
             it = id_solve(qp, self.nv, self.cap, self.buffers)
         if it > 0 and self.residual[0] <= self.tolerance:
-            return QPSolution(self.x, self.name)
+            return self._solution
         raise SolverError(self.status_text(it, self.residual[0]))
 
     def give_up(self) -> float:
