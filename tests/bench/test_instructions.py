@@ -44,3 +44,12 @@ def test_numba_cache_key_of_a_named_cpu_has_no_detected_features(monkeypatch):
     out = subprocess.run([sys.executable, "-c", MAGIC], env=callgrind_env(), capture_output=True, text=True,
                          check=True).stdout.strip()
     assert ast.literal_eval(out)[1:] == ("haswell", "")
+
+
+def test_a_cpu_argument_overrides_the_environment(monkeypatch, tmp_path):
+    # the suite's second count (wbc.bench.suite.HOST_LIKE_CPU) names its CPU by argument, whatever the variable says
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setenv("WBC_CALLGRIND_CPU", "generic")
+    env = callgrind_env("haswell")
+    assert (env["NUMBA_CPU_NAME"], env["NUMBA_CPU_FEATURES"]) == ("haswell", "")
+    assert Path(env["NUMBA_CACHE_DIR"]) == tmp_path / "wbc" / "numba-haswell"

@@ -41,20 +41,20 @@ def callgrind_available() -> bool:
     return shutil.which("valgrind") is not None and shutil.which("callgrind_control") is not None
 
 
-def callgrind_env() -> dict[str, str]:
+def callgrind_env(cpu: str | None = None) -> dict[str, str]:
     """The environment of a callgrind child: this process's, with numba compiling for the generic x86-64 CPU
     (``NUMBA_CPU_NAME=generic``, no extra CPU features) into its own on-disk cache
     (``NUMBA_CACHE_DIR`` = ``$XDG_CACHE_HOME/wbc/numba-generic``, default ``~/.cache/wbc/numba-generic``), so that
     the cache a native run wrote is the one a run under valgrind finds. ``WBC_CALLGRIND_CPU`` names another LLVM
     CPU (e.g. ``haswell``: x86-64 with AVX2, which valgrind emulates) for a count of code tuned beyond the baseline;
-    its cache is ``numba-<cpu>``.
+    its cache is ``numba-<cpu>``; ``cpu`` (an LLVM CPU name) overrides both.
 
     Returns:
         A copy of ``os.environ`` with those variables set (``NUMBA_CPU_FEATURES`` empty: the named CPU's features,
         none detected).
     """
     env = dict(os.environ)
-    cpu = env.get("WBC_CALLGRIND_CPU") or "generic"
+    cpu = cpu or env.get("WBC_CALLGRIND_CPU") or "generic"
     cache = Path(env.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "wbc" / f"numba-{cpu}"
     env["NUMBA_CPU_NAME"] = cpu
     env["NUMBA_CPU_FEATURES"] = ""  # the CPU's own features; unset, numba adds the ones it detects (all but generic)
@@ -62,10 +62,10 @@ def callgrind_env() -> dict[str, str]:
     return env
 
 
-def prime_child(module: str, args: list[str], label: str, log=print) -> float:
+def prime_child(module: str, args: list[str], label: str, log=print, cpu: str | None = None) -> float:
     """Run the callgrind child ``python -m module *args`` once natively with :func:`callgrind_env`, answering each
     of its markers, so that every kernel it calls is compiled into (or already found in) that environment's
-    numba cache before the run under valgrind.
+    numba cache before the run under valgrind (``cpu``: as :func:`callgrind_env`).
 
     Returns:
         The wall time of the run (s).
@@ -74,21 +74,21 @@ def prime_child(module: str, args: list[str], label: str, log=print) -> float:
         RuntimeError: the child failed.
     """
     t0 = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", module, *args], env=callgrind_env(), input="go\n" * 4,
+    r = subprocess.run([sys.executable, "-m", module, *args], env=callgrind_env(cpu), input="go\n" * 4,
                        capture_output=True, text=True, timeout=3600)
     if r.returncode:
         raise RuntimeError(f"callgrind child {label} failed natively: {r.stderr[-2000:]}")
     seconds = time.perf_counter() - t0
-    log(f"callgrind {label}: kernels compiled or loaded for CPU {callgrind_env()['NUMBA_CPU_NAME']} natively "
+    log(f"callgrind {label}: kernels compiled or loaded for CPU {callgrind_env(cpu)['NUMBA_CPU_NAME']} natively "
         f"({seconds:.0f} s)")
     return seconds
 
 
-def _start_under_callgrind(module: str, args: list[str], out_dir: str) -> subprocess.Popen:
+def _start_under_callgrind(module: str, args: list[str], out_dir: str, cpu: str | None) -> subprocess.Popen:
     return subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
                              f"--callgrind-out-file={out_dir}/cg.out", sys.executable, "-m", module, *args],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=callgrind_env())
+                            env=callgrind_env(cpu))
 
 
 def _child(library: str, n: int, robot_name: str = "talos") -> None:
@@ -165,7 +165,7 @@ def walk_instructions_per_tick(n_steps: int = 2, robot_name: str = "talos", log=
         args = ["walk-" + lib, str(n_steps), robot_name]
         prime_child("wbc.bench.instructions", args, f"walk {lib}", log)
         with tempfile.TemporaryDirectory() as d:
-            p = _start_under_callgrind("wbc.bench.instructions", args, d)
+            p = _start_under_callgrind("wbc.bench.instructions", args, d, None)
             try:
                 line = p.stdout.readline().strip()
                 if line != "READY":
@@ -202,11 +202,13 @@ def _control(pid: int, *args: str) -> str:
     return r.stdout
 
 
-def callgrind_half_and_done(module: str, args: list[str], label: str, log=print) -> tuple[int, int]:
+def callgrind_half_and_done(module: str, args: list[str], label: str, log=print,
+                            cpu: str | None = None) -> tuple[int, int]:
     """Run ``python -m module *args`` under valgrind callgrind with instrumentation off, and read its instruction
     totals at two points of a line protocol: the child prints READY (instrumentation is switched on and zeroed),
     HALF (after N ticks) and DONE (after 2N ticks), each time waiting for a "go" line on stdin. The child is first
-    run natively (:func:`prime_child`) so that under valgrind it loads its kernels from the cache.
+    run natively (:func:`prime_child`) so that under valgrind it loads its kernels from the cache (``cpu``: the
+    LLVM CPU they are compiled for, :func:`callgrind_env`).
 
     Returns:
         (Ir at HALF, Ir at DONE), counted from READY (instructions of thread 1).
@@ -214,9 +216,9 @@ def callgrind_half_and_done(module: str, args: list[str], label: str, log=print)
     Raises:
         RuntimeError: the child printed something else, failed, or callgrind_control gave no Ir total.
     """
-    prime_child(module, args, label, log)
+    prime_child(module, args, label, log, cpu)
     with tempfile.TemporaryDirectory() as d:
-        p = _start_under_callgrind(module, args, d)
+        p = _start_under_callgrind(module, args, d, cpu)
         try:
             irs = []
             for marker in ("READY", "HALF", "DONE"):
@@ -243,8 +245,10 @@ def callgrind_half_and_done(module: str, args: list[str], label: str, log=print)
         return irs[0], irs[1]
 
 
-def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) -> dict[str, object]:
-    """Instructions per kinematic tick of wbc and placo (module docstring).
+def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print,
+                          cpu: str | None = None) -> dict[str, object]:
+    """Instructions per kinematic tick of wbc and placo (module docstring); ``cpu``: the LLVM CPU wbc's kernels are
+    compiled for (:func:`callgrind_env`; placo's wheel is the same code whatever it is).
 
     Returns:
         {"n": n, "robot", "instructions": {lib: per tick}, "raw": {lib: [Ir(N), Ir(2N)]}, "cpu" (the LLVM CPU
@@ -259,11 +263,11 @@ def instructions_per_tick(n: int = 200, robot_name: str = "talos", log=print) ->
     raw: dict[str, list[int]] = {}
     for lib in LIBRARIES:
         t1 = time.perf_counter()
-        raw[lib] = list(callgrind_half_and_done("wbc.bench.instructions", [lib, str(n), robot_name], lib, log))
+        raw[lib] = list(callgrind_half_and_done("wbc.bench.instructions", [lib, str(n), robot_name], lib, log, cpu))
         log(f"callgrind {lib}: {raw[lib][0]:,} instructions after {n} ticks, {raw[lib][1]:,} after {2 * n} "
             f"({time.perf_counter() - t1:.0f} s)")
     per = {lib: (r[1] - r[0]) / n for lib, r in raw.items()}
-    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw, "cpu": callgrind_env()["NUMBA_CPU_NAME"],
+    return {"n": n, "robot": robot_name, "instructions": per, "raw": raw, "cpu": callgrind_env(cpu)["NUMBA_CPU_NAME"],
             "ratio_wbc_placo": per["wbc"] / per["placo"], "seconds": time.perf_counter() - t0}
 
 

@@ -271,6 +271,8 @@ class InverseDynamicsQP:
         tl, jl, rows = self.torque_limits, self.joint_acceleration_limits, self._rows
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
                               jl.speed_horizon, 0.0])
+        self._par_written = None  # the values _assemble last wrote into _par
+        self._qp_views: dict[int, QPData] = {}  # _assemble's QPData of these buffers by equality row count
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
         self._compiled = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
                           IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
@@ -544,14 +546,17 @@ class InverseDynamicsQP:
         rows.gather(self, state)
         self._refresh_contact_rows()
         par = self._par
-        par[PAR_EXTRA_ROWS] = 0
+        extra = 0
         if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # after the active contacts' rows
             m0 = 6 + 6 * int(np.count_nonzero(rows.active))
-            par[PAR_EXTRA_ROWS] = self._write_gathered(self._context(state, dt), m0) - m0
+            extra = self._write_gathered(self._context(state, dt), m0) - m0
         jl = self.joint_acceleration_limits
         self.chain.compiled.max_iterations = self.kernel_max_iterations
-        par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = (
-            self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon)
+        values = (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon, extra)
+        if values != self._par_written:  # attributes assignable between ticks: written when one changed
+            (par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON],
+             par[PAR_EXTRA_ROWS]) = values
+            self._par_written = values
         args = (rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *compiled)
         if self._id_assemble is None:  # the buffers' and the state's types are fixed (with kernel type checks on,
             # the dispatcher, which resolves them on every call)
@@ -560,7 +565,11 @@ class InverseDynamicsQP:
         if m == PROJECT_CONTACT_RHS:  # build drops the dependent directions
             return QPData(*self.build(state, dt, gathered=True)), "kernel: dependent contact rows"
         self._m = m
-        return QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u, self._lb, self._ub), ""
+        qp = self._qp_views.get(m)
+        if qp is None:  # views of the buffers, one per equality row count (the buffers live until _new_compiled)
+            qp = self._qp_views[m] = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
+                                            self._lb, self._ub)
+        return qp, ""
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration

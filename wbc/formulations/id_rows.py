@@ -19,7 +19,7 @@ def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
     if ff is None:
         row.fill(0.0)
         return True
-    row[:] = ff
+    row[...] = ff
     return False
 
 
@@ -35,6 +35,9 @@ class IDProblemRows:
         self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
         self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
         self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
+        # per contact: its views of Jc, Gc, Rc, cdrift, ckd (an Ellipsis assignment into a view is the cheapest copy)
+        self._contact_views = [(c, self.Jc[i], self.Gc[i], self.Rc[i], self.cdrift[i], self.ckd[i:i + 1])
+                               for i, c in enumerate(qp.contacts)]
         self.active = np.zeros(nc, dtype=np.bool_)
         self.contacts = IDContactData(self.cbuf, self.active)
         self.Hw = np.zeros((nv, nv))  # task_cost workspace
@@ -80,15 +83,15 @@ class IDProblemRows:
             if dense:
                 task.compute_with_drift_into(state, e, J, drift)
             else:
-                e[:] = task.compute(state)[0]
-                drift[:] = task.drift(state)
+                e[...] = task.compute(state)[0]
+                drift[...] = task.drift(state)
             ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
             if ff is not None or not eff_zero:
                 ent[11] = _write_feedforward(eff, ff)
             ff = ref.feedforward_acceleration
             if ff is not None or not aff_zero:
                 ent[12] = _write_feedforward(aff, ff)
-            w[:] = ref.weight
+            w[...] = ref.weight
             kp, kd = ref.kp, ref.kd
             if gains is None or gains[0] != kp or gains[1] != kd:
                 R[R_KP, s] = kp
@@ -98,12 +101,13 @@ class IDProblemRows:
         if self._rotations[0] is not data:  # views of Data's frame rotations (updated in place by Pinocchio)
             self._rotations = (data, [data.oMf[c.frame_id].rotation for c in qp.contacts])
         rotations = self._rotations[1]
-        for i, c in enumerate(qp.contacts):
-            self.Jc[i] = c.jacobian(state)
-            self.Gc[i] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
+        active = self.active
+        for i, (c, Jc, Gc, Rc, cdrift, ckd) in enumerate(self._contact_views):
+            Jc[...] = c.jacobian(state)
+            Gc[...] = c.force_map()  # a partial foothold (SoleContact.set_support) moves its corners
             a = c.active
-            self.active[i] = a
+            active[i] = a
             if a:
-                self.cdrift[i] = c.acceleration_offset(state)
-                self.ckd[i] = c.kd
-                self.Rc[i] = rotations[i]
+                cdrift[...] = c.acceleration_offset(state)
+                ckd[...] = c.kd
+                Rc[...] = rotations[i]

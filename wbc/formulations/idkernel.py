@@ -358,6 +358,7 @@ class IDOutputCheck:
         self.torque_limits = torque_limits
         self._buffers = IDOutputBuffers(force_lb, force_ub, np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_),
                                         np.zeros((2 * nc + 2, 2)))
+        self._friction_rows = list(self._buffers.friction)  # (16, 12) views, one per contact
         self._no_joints = np.zeros(0, np.int64)
         self._kernel = None  # violations' compiled call, specialised at its first call
 
@@ -366,10 +367,10 @@ class IDOutputCheck:
         :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
         scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
         None when an entry of the solution is not finite."""
-        _, _, friction, active, out = self._buffers
+        active, out = self._buffers.active, self._buffers.out
         contacts = self.contacts
         for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
-            friction[k] = c.friction_matrix
+            self._friction_rows[k][...] = c.friction_matrix
             active[k] = c.active
         tl = self.torque_limits
         joints = self._no_joints if relaxed or not tl.joints.size else tl.joints

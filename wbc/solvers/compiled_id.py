@@ -294,6 +294,14 @@ def id_solve(qp, nv, max_iter, buffers):
     return it
 
 
+def _c_contiguous(arrays) -> bool:
+    """Every array of ``arrays`` C-contiguous (a loop: cheaper per tick than ``all`` over a generator)."""
+    for a in arrays:
+        if not a.flags.c_contiguous:
+            return False
+    return True
+
+
 class CompiledIDSolver:
     """:func:`id_solve` behind the solver protocol: ``solve(QPData) → QPSolution``.
 
@@ -321,6 +329,7 @@ class CompiledIDSolver:
         self.gave_up = False
         self.cap = self.max_iterations  # the last call's iteration cap
         self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
+        self._solution = QPSolution(self.x, self.name)  # every answer: x is this view of the buffer
 
     def solve(self, qp: QPData) -> QPSolution:
         """The exact optimum of ``qp`` (x a view of this solver's buffer, overwritten by the next call).
@@ -330,14 +339,14 @@ class CompiledIDSolver:
         """
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
-        if not CHECK_TYPES and all(a.flags.c_contiguous for a in qp):
+        if not CHECK_TYPES and _c_contiguous(qp):
             if self._entry is None:
                 self._entry = specialise(id_solve, qp, self.nv, self.cap, self.buffers)
             it = self._entry(qp, self.nv, self.cap, self.buffers)
         else:
             it = id_solve(qp, self.nv, self.cap, self.buffers)
         if it > 0 and self.residual[0] <= self.tolerance:
-            return QPSolution(self.x, self.name)
+            return self._solution
         raise SolverError(self.status_text(it, self.residual[0]))
 
     def give_up(self) -> float:
