@@ -294,14 +294,6 @@ def id_solve(qp, nv, max_iter, buffers):
     return it
 
 
-def _c_contiguous(arrays) -> bool:
-    """Every array of ``arrays`` C-contiguous (a loop: cheaper per tick than ``all`` over a generator)."""
-    for a in arrays:
-        if not a.flags.c_contiguous:
-            return False
-    return True
-
-
 class CompiledIDSolver:
     """:func:`id_solve` behind the solver protocol: ``solve(QPData) → QPSolution``.
 
@@ -330,6 +322,7 @@ class CompiledIDSolver:
         self.cap = self.max_iterations  # the last call's iteration cap
         self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
         self._solution = QPSolution(self.x, self.name)  # every answer: x is this view of the buffer
+        self._checked: tuple = (None, False)  # (the last QPData, its arrays all C-contiguous)
 
     def solve(self, qp: QPData) -> QPSolution:
         """The exact optimum of ``qp`` (x a view of this solver's buffer, overwritten by the next call).
@@ -339,7 +332,9 @@ class CompiledIDSolver:
         """
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
-        if not CHECK_TYPES and _c_contiguous(qp):
+        if qp is not self._checked[0]:  # the formulation hands over the same QPData of views tick after tick
+            self._checked = (qp, not CHECK_TYPES and all(a.flags.c_contiguous for a in qp))
+        if self._checked[1]:
             if self._entry is None:
                 self._entry = specialise(id_solve, qp, self.nv, self.cap, self.buffers)
             it = self._entry(qp, self.nv, self.cap, self.buffers)
