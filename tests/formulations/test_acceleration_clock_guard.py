@@ -192,7 +192,8 @@ def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_e
     calls_cut = []
     ctrl, cmd_cut, _ = _infeasible_tick(robots, calls_cut, budget=1e-9, clock_guard=True)
     assert cmd_cut.ok and cmd_cut.relaxed and cmd_cut.path == "relaxed:daqp+budget" and cmd_cut.over_budget
-    assert calls_cut == ["backend", "backend"] and ctrl.qp.chain.checks_skipped == 1 and ctrl.qp.chain.infeasible_by_check == 0
+    assert calls_cut == ["backend", "backend"] and ctrl.qp.chain.quadprog_skipped == 1
+    assert ctrl.qp.chain.infeasible_by_check == 0 and ctrl.qp.chain.relaxed_set_feasible is None
     for cmd in (cmd_roomy, cmd_cut):
         assert np.max(np.abs(cmd.tau - cmd_free.tau)) <= 1e-9 * max(1.0, np.max(np.abs(cmd_free.tau)))
     assert ctrl.clock_guard is True
