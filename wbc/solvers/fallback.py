@@ -207,9 +207,11 @@ class FallbackChain:
             return None
         if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
             self.hard_set_x = np.zeros(lb.shape)
-        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
-                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
+        limit = int(min(left, ITERATION_LIMIT))
+        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance, iter_limit=limit,
+                                             out=self.hard_set_x)
         self.tick_work += iterations + DAQP_CALL_WORK
+        self._check_final = iterations < limit  # ended before its iteration limit
         return verdict
 
     def _retry_iterations(self, stage: str) -> int | None:
@@ -385,10 +387,8 @@ class FallbackChain:
     def _resume_scaled(self, backend: DaqpBackend, qp: QPData) -> np.ndarray | None:
         """One scaled call of at most SCALED_FEASIBLE_FACTOR × :attr:`daqp_attempt_iterations` iterations: its
         checked x, or None (:attr:`resume_scaled` cleared)."""
-        proximal = backend.proximal_iterations
         cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
         x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), qp)
-        self.tick_work += self._call_work(backend, proximal)
         if x is None:
             self.resume_scaled = False
         else:
@@ -410,8 +410,8 @@ class FallbackChain:
             self.last_set_empty = False
             known = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
             if known is False:
-                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
-                                      backend, qp, relax, known, checked=True)
+                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"), qp,
+                                      relax, known, checked=True)
         retry = backend.cold_retry
         # the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
@@ -421,7 +421,7 @@ class FallbackChain:
         attempted = backend.last_iterations  # the attempt's DAQP iterations
         if backend.budget_capped:
             self.budget_cut = True
-        feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
+        feasible = self._check_hard_sets(first, qp, relax, known, checked=checked)
         if cap is not None:
             # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set with
             # a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
@@ -430,9 +430,7 @@ class FallbackChain:
             if left < MIN_CALL_ITERATIONS:
                 self.budget_cut = True
             else:
-                proximal = backend.proximal_iterations
                 x = self._solve_scaled(backend, int(min(scaled_cap, left)), qp, self._deadline(self.FAILURE_END))
-                self.tick_work += self._call_work(backend, proximal)
                 if x is not None:
                     return QPSolution(x, backend.name, "scaled call")
         work = self._quadprog_work(H.shape[0])
@@ -463,49 +461,37 @@ class FallbackChain:
             self.budget_cut = True
         raise exc
 
-    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable | None,
-                         full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP (counted): the full set (unless ``checked``: its verdict ``full``),
-        then the relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a
-        point."""
+    def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None = None,
+                         *, checked: bool = False) -> bool:
+        """The hard-set checks of a failed full QP: the full set (unless ``checked``: its verdict ``full``), then the
+        relaxed one (:attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`). A set proved empty raises SolverError
+        (``first`` extended). True: the full set has a point."""
+        _, _, A, b, C, l, u, lb, ub = qp
         if not checked:
-            full = self._set_check(*qp[2:], "FAILURE")
+            full = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
         if full is True:
             self.hard_set_point = True
             return True
         self.last_set_empty = full is False
-        left = self._left("FAILURE")
-        if relax is not None and left >= MIN_CALL_ITERATIONS:
-            try:
-                self._check_relaxed_set(first, backend, qp, relax, int(min(left, ITERATION_LIMIT)))
-            except SolverError:
+        if relax is not None and self._left("FAILURE") >= MIN_CALL_ITERATIONS:
+            self.relaxed_bounds = relax(l, u, lb, ub)  # the caller's relaxed QP of this tick reuses them
+            self.relaxed_set_feasible = self._set_check(A, b, C, *self.relaxed_bounds, "FAILURE")
+            self._relaxed_check_final = self._check_final
+            if self.relaxed_set_feasible is False:
                 self.last_set_empty = True
-                raise
+                self.infeasible_by_check += 1
+                raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection "
+                                  f"of the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
         if full is False:
             self.infeasible_by_check += 1
             raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
                               f"quadprog and the backend's retries skipped")
         return False
 
-    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable,
-                           iter_limit: int) -> None:
-        """Check the relaxed hard set of ``qp`` (sets :attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`); raises
-        SolverError (``first`` extended) when it is proved empty."""
-        _, _, A, b, C, l, u, lb, ub = qp
-        relaxed = relax(l, u, lb, ub)
-        self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
-        self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
-                                                               iter_limit=iter_limit)
-        self._relaxed_check_final = iterations < iter_limit
-        self.tick_work += iterations + DAQP_CALL_WORK
-        if self.relaxed_set_feasible is False:
-            self.infeasible_by_check += 1
-            raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
-                              f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
-
     def _solve_scaled(self, backend: DaqpBackend, cap: int | None, qp: QPData, end: float = math.inf):
         """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations (None: no cap), ending by
-        the CPU time ``end``: its x, or None."""
+        the CPU time ``end``, its work counted: its x, or None."""
+        proximal = backend.proximal_iterations
         backend.call_iterations = cap
         backend.deadline = end
         try:
@@ -513,6 +499,7 @@ class FallbackChain:
         finally:
             backend.call_iterations = None
             backend.deadline = math.inf
+        self.tick_work += self._call_work(backend, proximal)
         if x is not None:
             self.scaled_solves += 1
         return x
