@@ -228,9 +228,11 @@ class FallbackChain:
                 + DAQP_CALL_WORK)
 
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
-        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step), its DAQP calls capped at
-        ``calls`` (None: no cap) and ending by the CPU time ``deadline`` (None: as set), its work counted: the retries
-        at ``calls`` per call (nothing when None), an attempt as it ran. (QPSolution, None) or (None, SolverError)."""
+        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
+        :meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled`), its DAQP calls capped at ``calls`` (None: no cap) and
+        ending by the CPU time ``deadline`` (None: as set), its work counted: the retries at ``calls`` per call
+        (nothing when None), the others as they ran. (QPSolution, None), (None, SolverError) or, for a scaled call
+        that found no solution, (None, None)."""
         backend = self.backend
         retry = backend.cold_retry
         backend.cold_retry = retry and step == "retries"
@@ -239,6 +241,10 @@ class FallbackChain:
         backend.call_iterations = calls
         proximal = backend.proximal_iterations
         try:
+            if step.endswith("scaled call"):
+                x = backend.solve_scaled(*qp)
+                self.scaled_solves += x is not None
+                return (None if x is None else QPSolution(x, backend.name, step)), None
             return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
         except SolverError as exc:
             return None, exc
@@ -367,9 +373,13 @@ class FallbackChain:
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
-            x = self._resume_scaled(backend, qp)
-            if x is not None:
-                return QPSolution(x, backend.name, "resumed scaled call")
+            # one scaled call of at most SCALED_FEASIBLE_FACTOR × daqp_attempt_iterations iterations
+            cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
+            sol = self._call(qp, "resumed scaled call", int(max(MIN_CALL_ITERATIONS, cap)))[0]
+            if sol is not None:
+                self.resumed_solves += 1
+                return sol
+            self.resume_scaled = False
             # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
             work = quadprog_work(H.shape[0])
             if work <= self._left("QUADPROG"):
@@ -383,17 +393,6 @@ class FallbackChain:
         except SolverError:
             self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
             raise
-
-    def _resume_scaled(self, backend: DaqpBackend, qp: QPData) -> np.ndarray | None:
-        """One scaled call of at most SCALED_FEASIBLE_FACTOR × :attr:`daqp_attempt_iterations` iterations: its
-        checked x, or None (:attr:`resume_scaled` cleared)."""
-        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
-        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), qp)
-        if x is None:
-            self.resume_scaled = False
-        else:
-            self.resumed_solves += 1
-        return x
 
     def _stages(self, qp: QPData, relax: Callable | None) -> QPSolution:
         """The ladder's steps on the full QP ``qp`` (``relax``: as :meth:`solve`). Raises SolverError: the backend's,
@@ -430,9 +429,9 @@ class FallbackChain:
             if left < MIN_CALL_ITERATIONS:
                 self.budget_cut = True
             else:
-                x = self._solve_scaled(backend, int(min(scaled_cap, left)), qp, self._deadline(self.FAILURE_END))
-                if x is not None:
-                    return QPSolution(x, backend.name, "scaled call")
+                sol = self._call(qp, "scaled call", int(min(scaled_cap, left)), self._deadline(self.FAILURE_END))[0]
+                if sol is not None:
+                    return sol
         work = self._quadprog_work(H.shape[0])
         if work > self._left("QUADPROG"):
             # too little work left for quadprog's solve (which cannot be stopped once started), and so for the
@@ -487,22 +486,6 @@ class FallbackChain:
             raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
                               f"quadprog and the backend's retries skipped")
         return False
-
-    def _solve_scaled(self, backend: DaqpBackend, cap: int | None, qp: QPData, end: float = math.inf):
-        """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations (None: no cap), ending by
-        the CPU time ``end``, its work counted: its x, or None."""
-        proximal = backend.proximal_iterations
-        backend.call_iterations = cap
-        backend.deadline = end
-        try:
-            x = backend.solve_scaled(*qp)
-        finally:
-            backend.call_iterations = None
-            backend.deadline = math.inf
-        self.tick_work += self._call_work(backend, proximal)
-        if x is not None:
-            self.scaled_solves += 1
-        return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
         """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails, the second opinion
