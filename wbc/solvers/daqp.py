@@ -274,10 +274,8 @@ class DaqpBackend(QPBackend):
             self._model = None
             self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and np.isfinite(x).all():
-            xc = np.minimum(np.maximum(x, lb), ub)
-            if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
-                return x
+        if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
+            return x
         if self.budget_capped:
             return None  # the tick's work limit stopped this problem's cold solve: no retry
         # the retries below within the tick's counted work left (call_limit)
@@ -318,10 +316,8 @@ class DaqpBackend(QPBackend):
         scale = _cost_scale(H, g)
         x, info = self._oneshot(H * scale, g * scale, **self.scaled_settings)
         self.last_iterations = int(info["iterations"])
-        if x is None or not np.isfinite(x).all():
-            return None
-        xc = np.minimum(np.maximum(x, lb), ub)
-        if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > self.tolerance:
+        xc = None if x is None else self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance)
+        if xc is None:
             return None
         # the multipliers of the unscaled QP (the scaled cost scales them): the next solve's dual warm start
         self.last_multipliers = np.asarray(info["lam"]) / scale

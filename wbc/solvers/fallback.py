@@ -261,7 +261,8 @@ class FallbackChain:
 
     @property
     def retry_deadline(self) -> float:
-        """CPU time after which a failed full QP gets no quadprog solve or retry (``math.inf``: no clock guard)."""
+        """CPU time after which an answer failing the output check is not refined (:meth:`refine`; ``math.inf``: no
+        clock guard)."""
         return self._deadline(self.ATTEMPT_END)
 
     def _deadline(self, factor: float) -> float:

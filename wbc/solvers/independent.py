@@ -70,12 +70,8 @@ def _checked(qp: QPData, pinned, xp, xr, tolerance):
     x = np.empty(H.shape[0])
     x[pinned] = xp
     x[~pinned] = xr
-    if not np.isfinite(x).all():
-        return None, "failed"
-    xc = np.minimum(np.maximum(x, lb), ub)
-    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
-        return None, "failed"
-    return xc, ""
+    xc = QPBackend.accepted(x, A, b, C, l, u, lb, ub, tolerance)
+    return (None, "failed") if xc is None else (xc, "")
 
 
 def _dense_solve(H, g, A, b, C, l, u, lb, ub):
@@ -197,10 +193,7 @@ def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit
     iterations = int(info["iterations"])
     if exitflag == -1:
         return False, iterations
-    if exitflag < 1 or not np.isfinite(x).all():
-        return None, iterations
-    xc = np.minimum(np.maximum(x, lb), ub)
-    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
+    if exitflag < 1 or QPBackend.accepted(x, A, b, C, l, u, lb, ub, tolerance) is None:
         return None, iterations
     if out is not None:
         out[:] = x
