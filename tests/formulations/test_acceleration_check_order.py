@@ -1,6 +1,6 @@
 """The failure path of the inverse-dynamics full QP without a clock guard, after its first DAQP attempt stopped at its
 count (``FallbackChain.daqp_attempt_iterations``): the full hard set is checked first
-(:func:`wbc.solvers.independent.hard_set_feasible`) — proved empty, no cost-scaled DAQP call; found not empty, the
+(:func:`wbc.solvers.independent.hard_set_check`) — proved empty, no cost-scaled DAQP call; found not empty, the
 attempt and the cost-scaled call share ``SCALED_FEASIBLE_FACTOR`` × the attempt's count before quadprog. Two QPs recorded from
 ``benchmarks/fuzz_id.py`` (Talos, 62 variables, the attempt capped at 190 iterations): seed 7002 episode 108 tick 2
 (full hard set empty, relaxed set not: a relaxed tick) and seed 7002 episode 158 tick 0 (feasible; DAQP's cost-scaled

@@ -1,5 +1,5 @@
 """The inverse-dynamics failure path under the clock guard, ordered by cost: a cheap hard-set check
-(``wbc.solvers.independent.hard_set_feasible``) before quadprog, DAQP calls whose iteration limit follows a CPU-time
+(``wbc.solvers.independent.hard_set_check``) before quadprog, DAQP calls whose iteration limit follows a CPU-time
 deadline (``DaqpBackend.deadline``), the cost-scaled DAQP call before quadprog. Oracles: HiGHS (scipy ``linprog``) for
 feasibility, quadprog for optima; counts of solver calls and iterations, never a wall-clock time."""
 
@@ -15,7 +15,7 @@ import quadprog
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend
 from wbc.solvers.daqp import MIN_CALL_ITERATIONS
-from wbc.solvers.independent import hard_set_feasible, solve_pinned_reduced
+from wbc.solvers.independent import hard_set_check, solve_pinned_reduced
 
 DT = 0.002
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures"
@@ -57,12 +57,12 @@ def test_hard_set_check_finds_feasible_the_qps_daqp_calls_infeasible_and_proves_
     first.cold_retry = False
     with pytest.raises(SolverError):  # the false infeasibility the check must not repeat
         first.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    assert hard_set_feasible(A, b, C, l, u, lb, ub) is True
+    assert hard_set_check(A, b, C, l, u, lb, ub)[0] is True
     l2 = l.copy()
     i = np.flatnonzero(np.isfinite(u) & np.any(C != 0, axis=1))[0]
     l2[i] = u[i] + 1.0
     assert not _highs_feasible(A, b, C, l2, u, lb, ub)
-    assert hard_set_feasible(A, b, C, l2, u, lb, ub) is (False if name == "id_released_foot_talos" else None)
+    assert hard_set_check(A, b, C, l2, u, lb, ub)[0] is (False if name == "id_released_foot_talos" else None)
 
 
 def test_hard_set_check_agrees_with_highs_on_random_sets_and_reports_an_unfinished_check_as_unknown():
@@ -84,13 +84,13 @@ def test_hard_set_check_agrees_with_highs_on_random_sets_and_reports_an_unfinish
             l[i], u[i] = np.abs(C[i]).sum() + 0.5, np.inf
         expected = _highs_feasible(A, b, C, l, u, lb, ub)
         assert expected == (k % 2 == 0)
-        verdicts.append(hard_set_feasible(A, b, C, l, u, lb, ub) is expected)
+        verdicts.append(hard_set_check(A, b, C, l, u, lb, ub)[0] is expected)
     assert all(verdicts)
     H, g, A, b, C, l, u, lb, ub = _fixture("id_released_foot_talos")
-    assert hard_set_feasible(A, b, C, l, u, lb, ub, iter_limit=1) is None
+    assert hard_set_check(A, b, C, l, u, lb, ub, iter_limit=1)[0] is None
     for bad in (0, 2.5, True, "10"):
         with pytest.raises(InvalidInputError, match="iter_limit"):
-            hard_set_feasible(A, b, C, l, u, lb, ub, iter_limit=bad)
+            hard_set_check(A, b, C, l, u, lb, ub, iter_limit=bad)[0]
 
 
 def test_daqp_dual_calls_follow_a_cpu_time_deadline_and_fail_rather_than_answer_unconverged():
@@ -192,7 +192,8 @@ def test_id_clock_guard_skips_quadprog_and_the_retries_on_a_hard_set_it_proves_e
     calls_cut = []
     ctrl, cmd_cut, _ = _infeasible_tick(robots, calls_cut, budget=1e-9, clock_guard=True)
     assert cmd_cut.ok and cmd_cut.relaxed and cmd_cut.path == "relaxed:daqp+budget" and cmd_cut.over_budget
-    assert calls_cut == ["backend", "backend"] and ctrl.qp.chain.checks_skipped == 1 and ctrl.qp.chain.infeasible_by_check == 0
+    assert calls_cut == ["backend", "backend"] and ctrl.qp.chain.quadprog_skipped == 1
+    assert ctrl.qp.chain.infeasible_by_check == 0 and ctrl.qp.chain.relaxed_set_feasible is None
     for cmd in (cmd_roomy, cmd_cut):
         assert np.max(np.abs(cmd.tau - cmd_free.tau)) <= 1e-9 * max(1.0, np.max(np.abs(cmd_free.tau)))
     assert ctrl.clock_guard is True

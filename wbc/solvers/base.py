@@ -241,10 +241,7 @@ class QPBackend(ABC):
                 np.eye(x.shape[0]), -np.where(np.isfinite(x0), x0, 0.0), A, b, C, l, u, lb, ub)
         except Exception:  # noqa: BLE001 — a failed projection polishes nothing
             return None
-        if y is None or not np.isfinite(y).all():
-            return None
-        yc = np.minimum(np.maximum(y, lb), ub)
-        return yc if self.scaled_violation(y, yc, A, b, C, l, u, lb, ub) <= self.tolerance else None
+        return None if y is None else self.accepted(y, A, b, C, l, u, lb, ub, self.tolerance)
 
     def raw_solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """One call of this backend's solver (warm start kept): its raw x (n,), unchecked and uncounted, or None."""
@@ -296,6 +293,15 @@ class QPBackend(ABC):
                         return xp, ""
         return None, ", ".join(tried) or ("no independent solver installed" if self.independent else
                                           "nobody (no independent solver asked: ``independent`` is empty)")
+
+    @staticmethod
+    def accepted(x, A, b, C, l, u, lb, ub, tolerance: float) -> np.ndarray | None:
+        """x (n,) projected onto [lb, ub] when it is finite and meets every row to ``tolerance``
+        (:meth:`scaled_violation`), else None."""
+        if not np.isfinite(x).all():
+            return None
+        xc = np.minimum(np.maximum(x, lb), ub)
+        return xc if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None
 
     @staticmethod
     def scaled_violation(x, xc, A, b, C, l, u, lb=None, ub=None) -> float:

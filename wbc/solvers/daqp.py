@@ -120,9 +120,16 @@ class DaqpBackend(QPBackend):
             limit = min(limit, MIN_CALL_ITERATIONS if left < MIN_CALL_ITERATIONS else int(min(left, limit)))
         return limit
 
-    def _oneshot(self, *args, **settings) -> tuple:
-        """DAQP's one-shot ``daqp.solve(*args, **settings)``, timed under a deadline (:meth:`_timed`)."""
-        return self._timed(lambda: self._daqp.solve(*args, **settings))
+    def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
+        """One call of DAQP's one-shot ``daqp.solve`` on the constraints formed by :meth:`_daqp_form`: the settings,
+        ``extra`` over them, at most :meth:`call_limit` iterations; timed (:meth:`_timed`), its stop noted
+        (:meth:`_note_exit`; not with ``note`` False). (x, or None when DAQP found none; DAQP's info dict)."""
+        limit = self.call_limit()
+        x, _, exitflag, info = self._timed(lambda: self._daqp.solve(
+            H, g, self._G, self._upper, self._lower, self._sense, **{**self.settings, "iter_limit": limit, **extra}))
+        if note:
+            self._note_exit(exitflag, limit)
+        return (x if exitflag >= 1 else None), info
 
     def _timed(self, call) -> tuple:
         """``call()`` (a DAQP solve: (x, fval, exitflag, info)), its proximal iterations counted; under a finite
@@ -178,14 +185,14 @@ class DaqpBackend(QPBackend):
         G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
         self._cold_outcome = None  # (x, model, multipliers) once this call ran the cold path (_solve_cold reuses it)
         if self.warm_start == "dual":
-            return self._solve_dual(H, g, G, upper, lower)
+            return self._solve_dual(H, g)
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
         tried_oneshot = self._oneshot_first and self.cold_retry
         if tried_oneshot:
             # the last solve's workspace calls failed where the one-shot solve then succeeded (a strict level whose
             # ±band rows make the workspace cycle, exit −2, after hundreds of iterations): the one-shot first
-            x = self._solve_oneshot(H, g, G, upper, lower)
+            x = self._solve_oneshot(H, g)
             if x is not None:
                 return x
             self._oneshot_first = False
@@ -210,7 +217,7 @@ class DaqpBackend(QPBackend):
                 # the workspace ran its whole iteration limit (cycling): the one-shot call first, the cold workspace
                 # after it only if it fails
                 self._model = None
-                x = self._solve_oneshot(H, g, G, upper, lower)
+                x = self._solve_oneshot(H, g)
                 if x is not None:
                     self._oneshot_first = True
                     self._cold_outcome = (x, None, self.last_multipliers)
@@ -240,20 +247,17 @@ class DaqpBackend(QPBackend):
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
-        x = self._solve_oneshot(H, g, G, upper, lower)
+        x = self._solve_oneshot(H, g)
         self._oneshot_first = x is not None
         self._cold_outcome = (x, None, self.last_multipliers)
         return x
 
-    def _solve_oneshot(self, H, g, G, upper, lower):
-        """One call of DAQP's one-shot ``daqp.solve`` (iterations bounded by :meth:`call_limit`): x or None."""
-        limit = self.call_limit()
-        x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit})
+    def _solve_oneshot(self, H, g):
+        """:meth:`_oneshot`, counted, its multipliers kept: x or None."""
+        x, info = self._oneshot(H, g)
         self.last_iterations += int(info["iterations"])
-        self._note_exit(exitflag, limit)
-        self.last_multipliers = info["lam"] if exitflag >= 1 else None
-        return x if exitflag >= 1 else None
+        self.last_multipliers = None if x is None else info["lam"]
+        return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self._dual = None
@@ -270,39 +274,32 @@ class DaqpBackend(QPBackend):
             self._model = None
             self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and np.isfinite(x).all():
-            xc = np.minimum(np.maximum(x, lb), ub)
-            if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= self.tolerance:
-                return x
+        if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
+            return x
         if self.budget_capped:
             return None  # the tick's work limit stopped this problem's cold solve: no retry
         # the retries below within the tick's counted work left (call_limit)
-        limit = {**self.settings, "iter_limit": self.call_limit()}
         low = self.settings.get("primal_tol", DAQP_PRIMAL_TOL) < self.tolerance
         if low or self.warm_start == "dual":
             # DAQP's infeasibility verdict was measured wrong on feasible QPs with a primal tolerance far below the
             # accepted violation (1e-9 on the ID QP), and at it on ill-conditioned ones (dual warm start): once more
             # at the tolerance, resp. DUAL_RETRY_PRIMAL_FACTOR × it (the answer is held to ``tolerance`` all the same)
             primal = self.tolerance if low else DUAL_RETRY_PRIMAL_FACTOR * self.tolerance
-            x2, _, exitflag, info = self._oneshot(H, g, self._G, self._upper, self._lower, self._sense,
-                                                  **{**limit, "primal_tol": primal})
+            x2, info = self._oneshot(H, g, primal_tol=primal)
             self.last_iterations += int(info["iterations"])
-            if exitflag >= 1:
+            if x2 is not None:
                 if not low:
                     self.last_multipliers = None
                 return x2
-            self._note_exit(exitflag, limit["iter_limit"])
             if self.budget_capped:
                 return None
-            limit["iter_limit"] = self.call_limit()
         scale = _cost_scale(H, g)
         if scale < 1.0:
             # the same minimiser with the cost divided by max(1, |g|∞, |H|max): DAQP's absolute dual tolerances
             # reported feasible inverse-dynamics QPs with a large |g| and an ill-conditioned Hessian infeasible
-            x3, _, exitflag, info = self._oneshot(H * scale, g * scale, self._G, self._upper, self._lower,
-                                                     self._sense, **{**limit, **self.scaled_settings})
+            x3, info = self._oneshot(H * scale, g * scale, note=False, **self.scaled_settings)
             self.last_iterations += int(info["iterations"])
-            if exitflag >= 1:
+            if x3 is not None:
                 self.last_multipliers = None
                 return x3
         return x
@@ -315,17 +312,12 @@ class DaqpBackend(QPBackend):
         Returns:
             x (n,) within [lb, ub] meeting every row to ``tolerance`` (the check of :meth:`QPBackend.solve`), or None.
         """
-        G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
+        self._daqp_form(A, b, C, l, u, lb, ub)
         scale = _cost_scale(H, g)
-        limit = self.call_limit()
-        x, _, exitflag, info = self._oneshot(H * scale, g * scale, G, upper, lower, self._sense,
-                                                **{**self.settings, "iter_limit": limit, **self.scaled_settings})
+        x, info = self._oneshot(H * scale, g * scale, **self.scaled_settings)
         self.last_iterations = int(info["iterations"])
-        self._note_exit(exitflag, limit)
-        if exitflag < 1 or not np.isfinite(x).all():
-            return None
-        xc = np.minimum(np.maximum(x, lb), ub)
-        if self.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > self.tolerance:
+        xc = None if x is None else self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance)
+        if xc is None:
             return None
         # the multipliers of the unscaled QP (the scaled cost scales them): the next solve's dual warm start
         self.last_multipliers = np.asarray(info["lam"]) / scale
@@ -333,26 +325,16 @@ class DaqpBackend(QPBackend):
             self._dual = self.last_multipliers.copy()
         return xc
 
-    def _limited(self, limit: int) -> dict:
-        """The settings with ``iter_limit`` = ``limit``."""
-        return self.settings if limit == self.settings.get("iter_limit") else {**self.settings, "iter_limit": limit}
-
-    def _solve_dual(self, H, g, G, upper, lower):
+    def _solve_dual(self, H, g):
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
-        limit = self.call_limit()  # the settings' iter_limit unless a work count or a deadline lowers it
-        settings = self._limited(limit)
-        kwargs = settings if self._dual is None else {**settings, "dual_start": self._dual}
-        x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **kwargs)
-        self._note_exit(exitflag, limit)
-        if exitflag < 1 and self._dual is not None and self.cold_retry and not self.budget_capped:
+        x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
+        if x is None and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
             # per solve)
-            limit = self.call_limit()
-            x, _, exitflag, info = self._oneshot(H, g, G, upper, lower, self._sense, **self._limited(limit))
-            self._note_exit(exitflag, limit)
+            x, info = self._oneshot(H, g)
         self.last_iterations += int(info["iterations"])
-        if exitflag < 1:
+        if x is None:
             self._dual = None
             self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
             return None

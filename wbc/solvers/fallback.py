@@ -100,8 +100,7 @@ class FallbackChain:
 
     Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
     ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
-    ``output_quadprog``, ``quadprog_skipped``, ``checks_skipped``, ``infeasible_by_check``,
-    ``relaxed_infeasible_by_check``.
+    ``output_quadprog``, ``quadprog_skipped``, ``infeasible_by_check``, ``relaxed_infeasible_by_check``.
     """
 
     def __init__(self, backend, compiled: CompiledIDSolver | None = None):
@@ -124,7 +123,7 @@ class FallbackChain:
         self.hard_set_x = np.zeros(0)
         for name in ("scaled_solves", "resumed_solves", "pinned_reduced_solves", "relaxed_quadprog_solves",
                      "second_opinion_solves", "output_polished", "output_quadprog", "quadprog_skipped",
-                     "checks_skipped", "infeasible_by_check", "relaxed_infeasible_by_check"):
+                     "infeasible_by_check", "relaxed_infeasible_by_check"):
             setattr(self, name, 0)
         self._daqp_check: DaqpBackend | None = None
         self.begin_tick()
@@ -153,26 +152,22 @@ class FallbackChain:
             return self._relaxed_daqp(qp)
         return self._solve_checked(*qp)
 
-    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain").
-    #: clock guard: the attempt ends by this many budgets after the tick's start
-    FULL_QP_DEADLINE = 1.25
-    #: clock guard: the hard-set check and the scaled call start before this many budgets, end by ``CHECK_END``
-    CHECK_DEADLINE = 1.4
-    CHECK_END = 1.55
-    #: clock guard: quadprog and the retries start before this many budgets (:attr:`retry_deadline`), quadprog only
-    #: when expected (:attr:`quadprog_cost`) to end by ``QUADPROG_END``
-    QUADPROG_DEADLINE = 1.2
-    QUADPROG_END = 1.55
-    #: clock guard: the relaxed QP's calls end by this many budgets
-    RELAXED_DEADLINE = 1.75
-    #: counted: the attempt and the scaled call on a set found not empty take this many attempt caps together
-    SCALED_FEASIBLE_FACTOR = 2
-    #: counted: the checks, the scaled call and the retries run below this many budgets of :attr:`tick_work`
+    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain"). Each stage's
+    # steps get the DAQP iterations :meth:`_left` answers: counted, what keeps :attr:`tick_work` below its _WORK
+    # factor of budgets; with a clock guard, the CPU time left before its _END factor of budgets after the tick's start.
+    #: the attempt's DAQP calls end by this many budgets (clock guard)
+    ATTEMPT_END = 1.25
+    #: the hard-set checks, the scaled call and the retries
     FAILURE_WORK = 1.0
-    #: counted: quadprog runs only when its count (:func:`quadprog_work`) fits below this many budgets
+    FAILURE_END = 1.4
+    #: quadprog runs only when its work (:meth:`_quadprog_work`) fits
     QUADPROG_WORK = 1.25
-    #: counted: the relaxed QP's calls run below this many budgets
+    QUADPROG_END = 1.55
+    #: the relaxed QP's calls
     RELAXED_WORK = 1.2
+    RELAXED_END = 1.75
+    #: the attempt and the scaled call on a set found not empty take this many attempt caps together
+    SCALED_FEASIBLE_FACTOR = 2
     #: DAQP calls of the backend's retries (each capped at this fraction of the work left)
     RETRY_CALLS = 4
 
@@ -180,27 +175,49 @@ class FallbackChain:
         """No clock guard and a finite :attr:`tick_work_iterations`."""
         return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
 
-    def _work_left(self, factor: float) -> float:
-        """DAQP iterations left before :attr:`tick_work` reaches ``factor`` budgets (``math.inf``: nothing counted)."""
-        return factor * self.tick_work_iterations - self.tick_work
+    def _left(self, stage: str) -> float:
+        """DAQP iterations left for ``stage`` (``"FAILURE"``, ``"QUADPROG"``, ``"RELAXED"``; ``math.inf``: no
+        limit): below its _WORK factor of budgets of :attr:`tick_work`, or (clock guard) the CPU time left before its
+        _END factor of budgets at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration."""
+        clock = self.tick_clock
+        if clock is None:
+            return getattr(self, stage + "_WORK") * self.tick_work_iterations - self.tick_work
+        return (clock[0] + getattr(self, stage + "_END") * clock[1] - thread_time()) / DAQP_ITERATION_COST
 
-    def _set_check(self, A, b, C, l, u, lb, ub, factor: float) -> bool | None:
-        """:func:`~wbc.solvers.independent.hard_set_check` within the work left below ``factor``, counted; None
+    def _quadprog_work(self, n: int) -> float:
+        """quadprog's solve of a QP of ``n`` variables in DAQP iterations: :func:`quadprog_work`, or (clock guard)
+        :attr:`quadprog_cost` / DAQP_ITERATION_COST."""
+        return quadprog_work(n) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
+
+    def _quadprog(self, qp: QPData, work: float) -> np.ndarray | None:
+        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` (x or None), ``work`` counted; its CPU time
+        updates :attr:`quadprog_cost`."""
+        c0 = thread_time()
+        x = solve_pinned_reduced(*qp, self.backend.tolerance)
+        self.tick_work += work
+        cost = thread_time() - c0
+        self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+        return x
+
+    def _set_check(self, A, b, C, l, u, lb, ub, stage: str) -> bool | None:
+        """:func:`~wbc.solvers.independent.hard_set_check` within what :meth:`_left` leaves ``stage``, counted; None
         (not asked) when fewer than MIN_CALL_ITERATIONS are left."""
-        left = self._work_left(factor)
+        left = self._left(stage)
         if left < MIN_CALL_ITERATIONS:
             return None
         if self.hard_set_x.shape != lb.shape:  # a QP handed over by a caller, not this formulation's
             self.hard_set_x = np.zeros(lb.shape)
-        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance,
-                                             iter_limit=int(min(left, ITERATION_LIMIT)), out=self.hard_set_x)
+        limit = int(min(left, ITERATION_LIMIT))
+        verdict, iterations = hard_set_check(A, b, C, l, u, lb, ub, self.backend.tolerance, iter_limit=limit,
+                                             out=self.hard_set_x)
         self.tick_work += iterations + DAQP_CALL_WORK
+        self._check_final = iterations < limit  # ended before its iteration limit
         return verdict
 
-    def _retry_iterations(self, factor: float) -> int | None:
-        """Iteration cap of each retry call: the work left below ``factor`` shared by :attr:`RETRY_CALLS` calls;
-        None when nothing is counted."""
-        left = self._work_left(factor)
+    def _retry_iterations(self, stage: str) -> int | None:
+        """Iteration cap of each retry call: what :meth:`_left` leaves ``stage`` shared by :attr:`RETRY_CALLS` calls;
+        None when unlimited."""
+        left = self._left(stage)
         if not math.isfinite(left):
             return None
         return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
@@ -211,9 +228,11 @@ class FallbackChain:
                 + DAQP_CALL_WORK)
 
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
-        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step), its DAQP calls capped at
-        ``calls`` (None: no cap) and ending by the CPU time ``deadline`` (None: as set), its work counted: the retries
-        at ``calls`` per call (nothing when None), an attempt as it ran. (QPSolution, None) or (None, SolverError)."""
+        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
+        :meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled`), its DAQP calls capped at ``calls`` (None: no cap) and
+        ending by the CPU time ``deadline`` (None: as set), its work counted: the retries at ``calls`` per call
+        (nothing when None), the others as they ran. (QPSolution, None), (None, SolverError) or, for a scaled call
+        that found no solution, (None, None)."""
         backend = self.backend
         retry = backend.cold_retry
         backend.cold_retry = retry and step == "retries"
@@ -222,6 +241,10 @@ class FallbackChain:
         backend.call_iterations = calls
         proximal = backend.proximal_iterations
         try:
+            if step.endswith("scaled call"):
+                x = backend.solve_scaled(*qp)
+                self.scaled_solves += x is not None
+                return (None if x is None else QPSolution(x, backend.name, step)), None
             return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
         except SolverError as exc:
             return None, exc
@@ -238,8 +261,9 @@ class FallbackChain:
 
     @property
     def retry_deadline(self) -> float:
-        """CPU time after which a failed full QP gets no quadprog solve or retry (``math.inf``: no clock guard)."""
-        return self._deadline(self.QUADPROG_DEADLINE)
+        """CPU time after which an answer failing the output check is not refined (:meth:`refine`; ``math.inf``: no
+        clock guard)."""
+        return self._deadline(self.ATTEMPT_END)
 
     def _deadline(self, factor: float) -> float:
         """start + factor × budget of :attr:`tick_clock` (``math.inf`` without one)."""
@@ -259,36 +283,28 @@ class FallbackChain:
         SolverError."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
-        end = self._deadline(self.RELAXED_DEADLINE)  # math.inf without a clock guard
-        counting = self._counting()
         retry = backend.cold_retry
-        backend.deadline = end
+        backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
         try:
-            # counted: the attempt's iterations and its DAQP_CALL_WORK within what is left below RELAXED_WORK
+            # the attempt's iterations and its DAQP_CALL_WORK within what is left for the relaxed QP
+            left = self._left("RELAXED")
             sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
-                self._work_left(self.RELAXED_WORK) - DAQP_CALL_WORK, ITERATION_LIMIT))) if counting else None)
+                left - DAQP_CALL_WORK, ITERATION_LIMIT))) if math.isfinite(left) else None)
             if sol is not None:
                 return sol
-            if counting:
-                left = self._work_left(self.RELAXED_WORK)
-            else:
-                left = (end - thread_time()) / max(backend.iteration_cost, backend.measured_iteration_cost)
-            if not backend.budget_capped and left >= MIN_CALL_ITERATIONS:
+            if not backend.budget_capped and self._left("RELAXED") >= MIN_CALL_ITERATIONS:
                 # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
                 feasible = self.relaxed_set_feasible
-                if feasible is None and not self._relaxed_check_final and counting:
-                    feasible = self._set_check(A, b, C, l, u, lb, ub, self.RELAXED_WORK)
-                elif feasible is None and not self._relaxed_check_final:
-                    feasible = hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
-                                              iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0]
+                if feasible is None and not self._relaxed_check_final:
+                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
                 if feasible is False:
                     self.relaxed_infeasible_by_check += 1
                     raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
                                       f"onto it): the backend's retries skipped")
                 if not retry:
                     raise first
-                calls = self._retry_iterations(self.RELAXED_WORK) if counting else None
-                if calls is not None and self._work_left(self.RELAXED_WORK) < MIN_CALL_ITERATIONS:
+                calls = self._retry_iterations("RELAXED")
+                if calls is not None and self._left("RELAXED") < MIN_CALL_ITERATIONS:
                     self.budget_cut = True
                     raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
@@ -299,18 +315,14 @@ class FallbackChain:
                     raise exc
                 first = exc
                 # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
-                if thread_time() + self.quadprog_cost > end:
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: tick budget spent (clock guard)")
-                work = quadprog_work(H.shape[0])
-                if counting and work > self._work_left(self.RELAXED_WORK):
+                work = self._quadprog_work(H.shape[0])
+                if work > self._left("RELAXED"):
                     self.quadprog_skipped += 1
                     self.budget_cut = True
                     raise SolverError(f"{first}; no quadprog solve of the relaxed QP: the tick's counted work "
                                       f"({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) would "
                                       f"pass {self.RELAXED_WORK} budgets")
-                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-                self.tick_work += work
+                x = self._quadprog(qp, work)
                 if x is None:
                     raise SolverError(f"{first}; quadprog found no solution either")
                 self.relaxed_quadprog_solves += 1
@@ -362,14 +374,17 @@ class FallbackChain:
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
-            x = self._resume_scaled(backend, qp)
-            if x is not None:
-                return QPSolution(x, backend.name, "resumed scaled call")
+            # one scaled call of at most SCALED_FEASIBLE_FACTOR × daqp_attempt_iterations iterations
+            cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
+            sol = self._call(qp, "resumed scaled call", int(max(MIN_CALL_ITERATIONS, cap)))[0]
+            if sol is not None:
+                self.resumed_solves += 1
+                return sol
+            self.resume_scaled = False
             # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
             work = quadprog_work(H.shape[0])
-            if work <= self._work_left(self.QUADPROG_WORK):
-                x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-                self.tick_work += work
+            if work <= self._left("QUADPROG"):
+                x = self._quadprog(qp, work)
                 if x is not None:
                     self.pinned_reduced_solves += 1
                     self.resume_scaled = True  # the next ticks resume the same way
@@ -380,19 +395,6 @@ class FallbackChain:
             self.resume_scaled = self.budget_cut and self.hard_set_point and self._counting()
             raise
 
-    def _resume_scaled(self, backend: DaqpBackend, qp: QPData) -> np.ndarray | None:
-        """One scaled call of at most SCALED_FEASIBLE_FACTOR × :attr:`daqp_attempt_iterations` iterations: its
-        checked x, or None (:attr:`resume_scaled` cleared)."""
-        proximal = backend.proximal_iterations
-        cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._work_left(self.FAILURE_WORK))
-        x = self._solve_scaled(backend, int(max(MIN_CALL_ITERATIONS, cap)), qp)
-        self.tick_work += self._call_work(backend, proximal)
-        if x is None:
-            self.resume_scaled = False
-        else:
-            self.resumed_solves += 1
-        return x
-
     def _stages(self, qp: QPData, relax: Callable | None) -> QPSolution:
         """The ladder's steps on the full QP ``qp`` (``relax``: as :meth:`solve`). Raises SolverError: the backend's,
         extended with why the ladder ended."""
@@ -400,174 +402,91 @@ class FallbackChain:
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
             return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
-        guarded = self.tick_clock is not None
         known = None  # the full hard set's check before DAQP's attempt, when made
-        checked = False
-        if not guarded and self.last_set_empty:
+        checked = self.last_set_empty
+        if checked:
             # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
             # skips DAQP's attempt, which could only fail)
             self.last_set_empty = False
-            known = self._set_check(A, b, C, l, u, lb, ub, self.FAILURE_WORK)
-            checked = True
+            known = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
             if known is False:
-                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"),
-                                      backend, qp, relax, known, checked=True)
+                self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"), qp,
+                                      relax, known, checked=True)
         retry = backend.cold_retry
-        # without a clock guard the first attempt and the cost-scaled call get the budget's iteration count
-        cap = None if guarded or self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
-        sol, first = self._call(qp, "attempt", cap, self._deadline(self.FULL_QP_DEADLINE))
+        # the first attempt and the cost-scaled call get the budget's iteration count
+        cap = None if self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
+        sol, first = self._call(qp, "attempt", cap, self._deadline(self.ATTEMPT_END))
         if sol is not None:
             return sol
         attempted = backend.last_iterations  # the attempt's DAQP iterations
         if backend.budget_capped:
             self.budget_cut = True
-        if not guarded:
-            feasible = self._check_hard_sets(first, backend, qp, relax, known, checked=checked)
-            if cap is not None:
-                # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set
-                # with a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
-                scaled_cap = (max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible
-                              else cap)
-                left = self._work_left(self.FAILURE_WORK)
-                if left < MIN_CALL_ITERATIONS:
-                    self.budget_cut = True
-                else:
-                    proximal = backend.proximal_iterations
-                    x = self._solve_scaled(backend, int(min(scaled_cap, left)), qp)
-                    self.tick_work += self._call_work(backend, proximal)
-                    if x is not None:
-                        return QPSolution(x, backend.name, "scaled call")
-        elif relax is not None and thread_time() < self._deadline(self.CHECK_DEADLINE):
-            # the relaxed hard set first: empty, it proves the full set empty too and the relaxed QP unsolvable (a
-            # failing tick's one check); not empty, the full set is checked next (below)
-            left = (self._deadline(self.CHECK_END) - thread_time()) / backend.iteration_cost
-            self._check_relaxed_set(first, backend, qp, relax,
-                                    max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))
-        if guarded:
-            if thread_time() >= self._deadline(self.CHECK_DEADLINE):
-                self.checks_skipped += 1
+        feasible = self._check_hard_sets(first, qp, relax, known, checked=checked)
+        if cap is not None:
+            # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set with
+            # a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
+            scaled_cap = max(MIN_CALL_ITERATIONS, self.SCALED_FEASIBLE_FACTOR * cap - attempted) if feasible else cap
+            left = self._left("FAILURE")
+            if left < MIN_CALL_ITERATIONS:
                 self.budget_cut = True
-                raise SolverError(f"{first}; no second opinion (hard-set check, quadprog, the backend's retries): "
-                                  f"tick budget spent (clock guard)")
-            end = self._deadline(self.CHECK_END)
-            # an attempt stopped at its deadline (not a verdict: e.g. |g| ~ 1e6) goes to the cost-scaled call first, an
-            # infeasibility verdict to the hard-set check first (most failed full QPs are infeasible)
-            capped = backend.budget_capped
-            for step in (("scaled", "check") if capped else ("check", "scaled")):
-                if thread_time() >= self._deadline(self.CHECK_DEADLINE):
-                    break  # no time for the second step: the failure stands (below)
-                if step == "check":
-                    left = (end - thread_time()) / backend.iteration_cost
-                    if hard_set_check(A, b, C, l, u, lb, ub, backend.tolerance,
-                                      iter_limit=max(MIN_CALL_ITERATIONS, int(min(left, ITERATION_LIMIT))))[0] is False:
-                        self.infeasible_by_check += 1
-                        raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto "
-                                          f"it): quadprog and the backend's retries skipped (clock guard)")
-                    continue
-                # not proved empty: DAQP's false infeasibility (ill-conditioned Hessian) or a capped attempt
-                x = self._solve_scaled(backend, None, qp, end)
-                if x is not None:
-                    return QPSolution(x, backend.name, "scaled call")
-            if thread_time() >= self.retry_deadline:
-                self.checks_skipped += 1
-                self.budget_cut = True
-                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and no "
-                                  f"quadprog solve or retry: tick budget spent (clock guard)")
-            if thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
-                self.checks_skipped += 1
-                self.budget_cut = True
-                raise SolverError(f"{first}; the hard set is not empty, the cost-scaled DAQP call failed, and "
-                                  f"quadprog's solve ({1e3 * self.quadprog_cost:.2g} ms) would end past "
-                                  f"{self.QUADPROG_END} budgets: tick budget spent (clock guard)")
-        work = quadprog_work(H.shape[0])
-        if not guarded and work > self._work_left(self.QUADPROG_WORK):
-            # too little counted work left for quadprog's solve (which cannot be stopped once started), and so for the
+            else:
+                sol = self._call(qp, "scaled call", int(min(scaled_cap, left)), self._deadline(self.FAILURE_END))[0]
+                if sol is not None:
+                    return sol
+        work = self._quadprog_work(H.shape[0])
+        if work > self._left("QUADPROG"):
+            # too little work left for quadprog's solve (which cannot be stopped once started), and so for the
             # retries after it
             self.quadprog_skipped += 1
             self.budget_cut = True
             raise SolverError(f"{first}; no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP "
                               f"iterations) and quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets"
                               + ("; the backend's retries skipped with it" if retry else ""))
-        c0 = thread_time()
-        x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-        self.tick_work += work
-        if guarded:
-            cost = thread_time() - c0
-            self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
+        x = self._quadprog(qp, work)
         if x is not None:
             self.pinned_reduced_solves += 1
             return QPSolution(x, "quadprog", "quadprog")
-        quadprog = "quadprog found no solution either"
         if not retry:
             raise first
-        if thread_time() >= self.retry_deadline:
+        calls = self._retry_iterations("FAILURE")
+        if calls is not None and self._left("FAILURE") < MIN_CALL_ITERATIONS:
             self.budget_cut = True
-            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: tick budget spent (clock guard)")
-        calls = None if guarded else self._retry_iterations(self.FAILURE_WORK)
-        if calls is not None and self._work_left(self.FAILURE_WORK) < MIN_CALL_ITERATIONS:
-            self.budget_cut = True
-            raise SolverError(f"{first}; {quadprog}; the backend's retries skipped: the tick's counted work "
-                              f"({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} budgets")
-        sol, exc = self._call(qp, "retries", calls, self._deadline(self.FULL_QP_DEADLINE))
+            raise SolverError(f"{first}; quadprog found no solution either; the backend's retries skipped: the "
+                              f"tick's counted work ({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} "
+                              f"budgets")
+        sol, exc = self._call(qp, "retries", calls, self._deadline(self.FAILURE_END))
         if sol is not None:
             return sol
         if backend.budget_capped or backend.iterations_capped:
             self.budget_cut = True
         raise exc
 
-    def _check_hard_sets(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable | None,
-                         full: bool | None = None, *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP (counted): the full set (unless ``checked``: its verdict ``full``),
-        then the relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a
-        point."""
+    def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None = None,
+                         *, checked: bool = False) -> bool:
+        """The hard-set checks of a failed full QP: the full set (unless ``checked``: its verdict ``full``), then the
+        relaxed one (:attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`). A set proved empty raises SolverError
+        (``first`` extended). True: the full set has a point."""
+        _, _, A, b, C, l, u, lb, ub = qp
         if not checked:
-            full = self._set_check(*qp[2:], self.FAILURE_WORK)
+            full = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
         if full is True:
             self.hard_set_point = True
             return True
         self.last_set_empty = full is False
-        left = self._work_left(self.FAILURE_WORK)
-        if relax is not None and left >= MIN_CALL_ITERATIONS:
-            try:
-                self._check_relaxed_set(first, backend, qp, relax, int(min(left, ITERATION_LIMIT)))
-            except SolverError:
+        if relax is not None and self._left("FAILURE") >= MIN_CALL_ITERATIONS:
+            self.relaxed_bounds = relax(l, u, lb, ub)  # the caller's relaxed QP of this tick reuses them
+            self.relaxed_set_feasible = self._set_check(A, b, C, *self.relaxed_bounds, "FAILURE")
+            self._relaxed_check_final = self._check_final
+            if self.relaxed_set_feasible is False:
                 self.last_set_empty = True
-                raise
+                self.infeasible_by_check += 1
+                raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection "
+                                  f"of the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
         if full is False:
             self.infeasible_by_check += 1
             raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
                               f"quadprog and the backend's retries skipped")
         return False
-
-    def _check_relaxed_set(self, first: SolverError, backend: DaqpBackend, qp: QPData, relax: Callable,
-                           iter_limit: int) -> None:
-        """Check the relaxed hard set of ``qp`` (sets :attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`); raises
-        SolverError (``first`` extended) when it is proved empty."""
-        _, _, A, b, C, l, u, lb, ub = qp
-        relaxed = relax(l, u, lb, ub)
-        self.relaxed_bounds = relaxed  # the caller's relaxed QP of this tick reuses them
-        self.relaxed_set_feasible, iterations = hard_set_check(A, b, C, *relaxed, backend.tolerance,
-                                                               iter_limit=iter_limit)
-        self._relaxed_check_final = iterations < iter_limit
-        self.tick_work += iterations + DAQP_CALL_WORK
-        if self.relaxed_set_feasible is False:
-            self.infeasible_by_check += 1
-            raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection of "
-                              f"the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
-
-    def _solve_scaled(self, backend: DaqpBackend, cap: int | None, qp: QPData, end: float = math.inf):
-        """:meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled` of at most ``cap`` iterations (None: no cap), ending by
-        the CPU time ``end``: its x, or None."""
-        backend.call_iterations = cap
-        backend.deadline = end
-        try:
-            x = backend.solve_scaled(*qp)
-        finally:
-            backend.call_iterations = None
-            backend.deadline = math.inf
-        if x is not None:
-            self.scaled_solves += 1
-        return x
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
         """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails, the second opinion
@@ -608,16 +527,14 @@ class FallbackChain:
                 if cand is not None:
                     self.output_polished += 1
                     return cand
-        if answered_by == "quadprog" or thread_time() + self.quadprog_cost > self._deadline(self.QUADPROG_END):
+        if answered_by == "quadprog":
             return None
-        work = quadprog_work(H.shape[0])
-        if self._counting() and work > self._work_left(self.QUADPROG_WORK):
-            # the same counted gate as the failure path's quadprog (:meth:`solve`)
+        work = self._quadprog_work(H.shape[0])
+        if work > self._left("QUADPROG"):  # the same gate as the failure path's quadprog (:meth:`_stages`)
             self.quadprog_skipped += 1
             self.budget_cut = True
             return None
-        xq = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance)
-        self.tick_work += work
+        xq = self._quadprog(qp, work)
         if xq is None:
             return None
         cand = accept(xq, "quadprog")

@@ -180,6 +180,14 @@ def _retry(kind, Hk, gk, scale, tolerance, rest, l=None, u=None, Fv=None) -> tup
     return Hk, gk, A, b, Ck, np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide]), lb, ub
 
 
+def _attempt(backend, args: tuple) -> np.ndarray | None:
+    """``backend.solve(*args)``, or None when it raises SolverError."""
+    try:
+        return backend.solve(*args)
+    except SolverError:
+        return None
+
+
 def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=None, level_work=0.0):
     """The levels of :func:`solve_lexicographic` on the QP ``qp`` whose equality rows A, b are independent:
     v."""
@@ -218,64 +226,52 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
         rest = (A_kept, b_kept, Ck, lk, uk, lb, ub)
         key = (k, len(levels))
         first = memo.get(key) if memo is not None else None
+        vk = None
         if first is not None:
             # an earlier cascade of this tick (same levels, e.g. a contact correction: only b or the box changed)
             # solved this level only by its damped or wide-band retry: that retry first (else the full sequence)
-            try:
-                v = backend.solve(*_retry(first, Hk, gk, scale, backend.tolerance, rest, l, u,
+            vk = _attempt(backend, _retry(first, Hk, gk, scale, backend.tolerance, rest, l, u,
                                           Fv if F is not None else None))
-                if J is not None:
-                    fixed_J.append(J)
-                continue
-            except SolverError:
+            if vk is None:
                 del memo[key]  # the hint failed: the full sequence below (which records what solves now)
                 if v is not None and stop is not None and stop():
                     solve_lexicographic.last_cut = k  # the budget ran out inside this level's solve
                     return v
-        try:
-            v = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
-        except SolverError as exc:
-            if v is not None and stop is not None and stop():
-                # the budget ran out inside this level's solve (a backend bounds its solver's iterations by the
-                # work left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level, with the last
-                # solved level's v (a point of the hard set, optimal for every level above)
-                solve_lexicographic.last_cut = k
-                return v
-            hard_point = None
-            if v is None:
-                # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned
-                # QP) — asked before the damped retry, so that an infeasible hard set costs two solves, not three
-                try:
-                    hard_point = backend.solve(np.eye(Hk.shape[0]), np.zeros(Hk.shape[0]), A_kept, b_kept, C, l, u,
-                                               lb, ub)
-                except SolverError:
-                    raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
-                                      f"soft level below {len(levels)} priority levels: {exc}") from None
-            if J is not None and first != "damped":
-                # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
-                # 5e-6 – 2e-3 off the rows: once more damped (_retry)
-                try:
-                    v_damped = backend.solve(*_retry("damped", Hk, gk, scale, backend.tolerance, rest))
-                except SolverError:
-                    v_damped = None
-                if v_damped is not None:
-                    v = v_damped
-                    if memo is not None:
+        if vk is None:
+            try:
+                vk = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+            except SolverError as exc:
+                if v is not None and stop is not None and stop():
+                    # the budget ran out inside this level's solve (a backend bounds its solver's iterations by the
+                    # work left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level, with the last
+                    # solved level's v (a point of the hard set, optimal for every level above)
+                    solve_lexicographic.last_cut = k
+                    return v
+                hard_point = None
+                if v is None:
+                    # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned
+                    # QP) — asked before the damped retry, so that an infeasible hard set costs two solves, not three
+                    hard_point = _attempt(backend, (np.eye(n), np.zeros(n), A_kept, b_kept, C, l, u, lb, ub))
+                    if hard_point is None:
+                        raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
+                                          f"soft level below {len(levels)} priority levels: {exc}") from None
+                if J is not None and first != "damped":
+                    # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
+                    # 5e-6 – 2e-3 off the rows: once more damped (_retry)
+                    vk = _attempt(backend, _retry("damped", Hk, gk, scale, backend.tolerance, rest))
+                    if vk is not None and memo is not None:
                         memo[key] = "damped"
-                    fixed_J.append(J)
-                    continue
-            if v is None:
-                # the first level failed twice on a feasible hard set (numerically): the hard set's point found above
-                v = hard_point
-            elif first != "wide":
-                # below the first level the problem is feasible by construction: a failure is numerical (a degenerate
-                # ±band): once more with a band at the solver's tolerance, else the previous level's v
-                try:
-                    v = backend.solve(*_retry("wide", Hk, gk, scale, backend.tolerance, rest, l, u, Fv))
-                    if memo is not None:
+                if vk is None and v is None:
+                    # the first level failed twice on a feasible hard set (numerically): the hard set's point found
+                    vk = hard_point
+                elif vk is None and first != "wide":
+                    # below the first level the problem is feasible by construction: a failure is numerical (a
+                    # degenerate ±band): once more with a band at the solver's tolerance, else the previous level's v
+                    vk = _attempt(backend, _retry("wide", Hk, gk, scale, backend.tolerance, rest, l, u, Fv))
+                    if vk is not None and memo is not None:
                         memo[key] = "wide"
-                except SolverError:
-                    pass
+        if vk is not None:
+            v = vk
         if J is not None:
             fixed_J.append(J)
     solve_lexicographic.last_determined = determined

@@ -1,6 +1,6 @@
 """Independent re-solves and checks of a QP (:mod:`wbc.solvers.qp_data`) another backend reported infeasible: quadprog
 with the pinned variables and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two
-active-set solvers (:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_feasible`).
+active-set solvers (:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_check`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from wbc.solvers.base import QPBackend
 from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT, DaqpBackend
 from wbc.solvers.qp_data import QPData
 
-__all__ = ["hard_set_check", "hard_set_feasible", "second_opinion", "solve_pinned_reduced"]
+__all__ = ["hard_set_check", "second_opinion", "solve_pinned_reduced"]
 
 
 def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
@@ -70,12 +70,8 @@ def _checked(qp: QPData, pinned, xp, xr, tolerance):
     x = np.empty(H.shape[0])
     x[pinned] = xp
     x[~pinned] = xr
-    if not np.isfinite(x).all():
-        return None, "failed"
-    xc = np.minimum(np.maximum(x, lb), ub)
-    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
-        return None, "failed"
-    return xc, ""
+    xc = QPBackend.accepted(x, A, b, C, l, u, lb, ub, tolerance)
+    return (None, "failed") if xc is None else (xc, "")
 
 
 def _dense_solve(H, g, A, b, C, l, u, lb, ub):
@@ -162,8 +158,8 @@ def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp
         return None, ""
 
 
-def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
-                      iter_limit: int = ITERATION_LIMIT) -> bool | None:
+def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit: int = ITERATION_LIMIT,
+                   out: np.ndarray | None = None) -> tuple[bool | None, int]:
     """Whether the constraints of a QP have a common point, by one cold DAQP call on the projection of the origin onto
     them (min ½‖x‖²): with an identity Hessian DAQP's dual infeasibility test is as well conditioned as the rows,
     unlike on the inverse-dynamics QP (Hessian eigenvalues 1e-7 to 1e3), where it was seen wrong.
@@ -171,22 +167,16 @@ def hard_set_feasible(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *,
     Args:
         A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,): the constraints (±inf for absent bounds).
         tolerance: largest scaled violation (:meth:`QPBackend.scaled_violation`) of a point that shows feasibility.
-        iter_limit: DAQP's iteration limit (an integer ≥ 1).
+        iter_limit: DAQP's iteration limit (an integer ≥ 1). out (n,): the point found is written there on True.
 
     Returns:
-        True: a point meeting every row and bound to ``tolerance`` was found; False: DAQP proved the set empty
-        (exit flag −1: infeasible); None: neither (iteration limit, or a point that fails the check).
+        (verdict, the DAQP call's iterations). Verdict True: a point meeting every row and bound to ``tolerance`` was
+        found; False: DAQP proved the set empty (exit flag −1: infeasible); None: neither (iteration limit, or a
+        point that fails the check).
 
     Raises:
         InvalidInputError: an ``iter_limit`` that is not an integer ≥ 1.
     """
-    return hard_set_check(A, b, C, l, u, lb, ub, tolerance, iter_limit=iter_limit)[0]
-
-
-def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit: int = ITERATION_LIMIT,
-                   out: np.ndarray | None = None) -> tuple[bool | None, int]:
-    """(:func:`hard_set_feasible`'s verdict, the DAQP call's iterations); ``out`` (n,): the point found is written
-    there on a True verdict. Raises InvalidInputError as :func:`hard_set_feasible`."""
     import daqp
 
     if isinstance(iter_limit, bool) or not isinstance(iter_limit, (int, np.integer)) or iter_limit < 1:
@@ -203,10 +193,7 @@ def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit
     iterations = int(info["iterations"])
     if exitflag == -1:
         return False, iterations
-    if exitflag < 1 or not np.isfinite(x).all():
-        return None, iterations
-    xc = np.minimum(np.maximum(x, lb), ub)
-    if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) > tolerance:
+    if exitflag < 1 or QPBackend.accepted(x, A, b, C, l, u, lb, ub, tolerance) is None:
         return None, iterations
     if out is not None:
         out[:] = x
