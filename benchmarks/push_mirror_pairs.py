@@ -12,6 +12,7 @@ Prints one line per pair (outcome, max DCM error, min measured CoP margin, worst
 the mirror deviation of the DCM before and after the push) and the totals: pairs agreeing, A-only falls, B-only falls.
 
 Usage: python benchmarks/push_mirror_pairs.py [--robot talos] [--seed0 26112800] [--trials 20] [--seeds S ...] [--force 300]
+       [--campaign SEED [--campaign-trials 60]] [--dir-range LO HI]
        [--state estimated|ground-truth] [--plant realistic|ideal] [--noise-seed N] [--jobs 1] [--dir D]
 """
 
@@ -62,9 +63,24 @@ def mirror_deviation(a: str, b: str, t_push: float) -> tuple[float, float]:
     return f(pre), f(post)
 
 
+def campaign_draw(seed: int, index: int, trials: int) -> tuple[float, float, float]:
+    """(push time s, direction deg, force N) of trial ``index`` of the default push campaign ``seed`` (``wbc campaign
+    run --kind push --seed SEED --trials TRIALS``: wbc.campaign.trials' push time, the trial index as noise seed)."""
+    from wbc.campaign.spec import default_spec, trial_params
+
+    spec = default_spec("push", seed=seed, trials=trials)
+    p, sc = trial_params(spec, index), spec.scenario
+    t_walk = max(0.0, (sc["steps"] - 1) * sc["step_duration"] - p["push_duration"])
+    return T_INIT + p["phase"] * t_walk, float(p["direction_deg"]), float(p["force"])
+
+
 def pair(job):
     seed, args = job
-    t, d = draw(seed, args.steps, args.step_duration, args.duration)
+    if args.campaign is None:
+        t, d = draw(seed, args.steps, args.step_duration, args.duration)
+    else:  # the campaign's trial `seed` (its index), at its own force
+        t, d, force = campaign_draw(args.campaign, seed, args.campaign_trials)
+        args = argparse.Namespace(**{**vars(args), "force": force})
     noise = seed if args.noise_seed is None else args.noise_seed
     tag = os.path.splitext(os.path.basename(args.robot))[0]
     base = os.path.join(args.dir, f"{tag}-{args.state}-{args.plant}-{seed}")
@@ -78,7 +94,7 @@ def pair(job):
                 f"mm speed {s.get('max_joint_speed_ratio', float('nan')):.2f}x adj {s['step_adjustments']}"
                 f"{' (' + s['fall_reason'] + ')' if s['fell'] else ''}")
 
-    line = (f"seed {seed}: t {t:.3f} s, A left-first {d:6.1f} deg: {one(sa, ok[0])} | B right-first {(-d) % 360:6.1f} deg: "
+    line = (f"{'trial' if args.campaign is not None else 'seed'} {seed}: {args.force:.0f} N, t {t:.3f} s, A left-first {d:6.1f} deg: {one(sa, ok[0])} | B right-first {(-d) % 360:6.1f} deg: "
             f"{one(sb, ok[1])} | mirror dev dcm pre {pre * 1e3:.2f} mm, post {post * 1e3:.1f} mm")
     return seed, ok, line, dict(seed=seed, t=t, d=d, A=sa, B=sb, dev_pre=pre, dev_post=post)
 
@@ -99,9 +115,27 @@ def main() -> None:
     ap.add_argument("--noise-seed", type=int, default=None, help="sensor noise seed of every run (default: the pair's seed)")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--dir", default=None, help="keep the JSON summaries and npz logs here (default: a temporary dir)")
+    ap.add_argument("--campaign", type=int, default=None, metavar="SEED",
+                    help="pairs of the default push campaign SEED's trials (indices from --seeds, or all "
+                         "--campaign-trials), each at its own force, time and direction; noise seed = trial index")
+    ap.add_argument("--campaign-trials", type=int, default=60, help="the campaign's trial count (default 60)")
+    ap.add_argument("--dir-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="only the pairs whose A push direction is in [LO, HI) deg (mod 360)")
     ap.add_argument("--out", default=None, help="write every pair's summaries as JSON here")
     args = ap.parse_args()
-    seeds = args.seeds or [args.seed0 + i for i in range(args.trials)]
+    if args.campaign is not None:
+        seeds = args.seeds or list(range(args.campaign_trials))
+    else:
+        seeds = args.seeds or [args.seed0 + i for i in range(args.trials)]
+    if args.dir_range is not None:
+        lo, hi = args.dir_range
+
+        def a_dir(s):
+            d = campaign_draw(args.campaign, s, args.campaign_trials)[1] if args.campaign is not None else \
+                draw(s, args.steps, args.step_duration, args.duration)[1]
+            return (d - lo) % 360.0 < (hi - lo) % 360.0
+
+        seeds = [s for s in seeds if a_dir(s)]
     with tempfile.TemporaryDirectory() as tmp:
         args.dir = args.dir or tmp
         os.makedirs(args.dir, exist_ok=True)
