@@ -156,7 +156,8 @@ def main() -> None:
     a = sum(r[1][0] for r in results)
     b = sum(r[1][1] for r in results)
     agree = sum(r[1][0] == r[1][1] for r in results)
-    print(f"{args.state} state, {args.plant} plant, {args.force:.0f} N x {args.duration} s: A (left first, d) survived "
+    force = f"campaign {args.campaign} forces" if args.campaign is not None else f"{args.force:.0f} N"
+    print(f"{args.state} state, {args.plant} plant, {force} x {args.duration} s: A (left first, d) survived "
           f"{a}/{len(results)}, B (right first, -d) survived {b}/{len(results)}; outcomes agree in {agree}/{len(results)}; "
           f"A-only falls {[r[0] for r in results if not r[1][0] and r[1][1]]}, B-only falls "
           f"{[r[0] for r in results if r[1][0] and not r[1][1]]}; median mirror dev of the DCM before the push "
