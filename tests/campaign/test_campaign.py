@@ -551,3 +551,22 @@ def test_pooled_survival_region_on_a_grid(tmp_path, capsys):
     text = capsys.readouterr().out
     assert f"(top decile, pooled rate ≥ {min(pooled[p] for p in expect):.2f}): {len(expect)} points" in text, text
     assert (tmp_path / "plots" / "sweep.png").is_file()
+
+
+def test_the_first_swing_foot_is_drawn_per_trial_without_moving_the_other_draws():
+    """first_side = "random" (the default) draws left or right per trial from a stream of its own: both sides come
+    out in about half the trials, and every factor's draw equals a campaign's with the side fixed; a fixed side is
+    kept; any other value is refused by name."""
+    from wbc.exceptions import InvalidInputError
+
+    spec = default_spec("push", trials=400, seed=11)
+    left = default_spec("push", trials=400, seed=11, scenario={"first_side": "left"})
+    drawn = [trial_params(spec, i) for i in range(400)]
+    fixed = [trial_params(left, i) for i in range(400)]
+    assert all(p["first_side"] == "left" for p in fixed)
+    assert [{k: v for k, v in p.items() if k != "first_side"} for p in drawn] == \
+        [{k: v for k, v in p.items() if k != "first_side"} for p in fixed]
+    n_right = sum(p["first_side"] == "right" for p in drawn)
+    assert 160 <= n_right <= 240  # binomial(400, 1/2): mean 200, sd 10
+    with pytest.raises(InvalidInputError, match="first_side must be left, right or random"):
+        default_spec("push", scenario={"first_side": "up"})

@@ -119,3 +119,51 @@ def test_a_nominal_walk_of_another_step_time_is_refused(talos_walk):
     robot, nominal = talos_walk  # lift-offs 0.6 s apart
     with pytest.raises(InvalidInputError, match="steps last 0.600 s, the campaign's 0.800 s"):
         capture_model(robot, nominal, 0.8)
+
+
+def test_a_right_first_walk_is_classified_as_the_mirror_image_of_the_nominal(talos_walk):
+    """A trial that swings the right foot first, pushed towards θ at t, meets the state of the (left-first) nominal
+    walk mirrored about y = 0 (soles, CoM and its velocity set by hand here): steps and capture point distance as
+    capturability gives on that state; and the same as the left-first trial pushed towards −θ at t."""
+    robot, nominal = talos_walk
+    model = capture_model(robot, nominal, 0.6)
+    rows = [dict(ROWS[0], trial=10, first_side="right", direction_deg=-100.0),
+            dict(ROWS[0], trial=11, first_side="left", direction_deg=100.0),
+            dict(ROWS[0], trial=12, first_side="right", direction_deg=100.0)]
+    cap = push_capturability(_table(rows), nominal, model, robot)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_ref)
+    right = data.oMf[robot.frame_id(robot.right_sole)].translation  # the nominal's stance at 1.2 s
+    com = nominal.com[0] * (1.0, -1.0, 1.0)
+    for k, deg in ((0, -100.0), (2, 100.0)):
+        a = math.radians(deg)
+        ref = capturability(model, com, [0.3, -0.05], (400.0 * math.cos(a), 400.0 * math.sin(a)), 0.1,
+                            [(right[0], -right[1], 0.0)], 1.48 - 1.2)
+        assert cap["steps"][k] == (-1 if ref.steps is None else ref.steps)
+        assert cap["distance_m"][k] == pytest.approx(ref.distance, abs=1e-12)
+    assert cap["steps"][0] == cap["steps"][1] and cap["distance_m"][0] == pytest.approx(cap["distance_m"][1],
+                                                                                        abs=1e-12)
+
+
+def test_pushes_are_counted_relative_to_the_stance_foot(talos_walk):
+    """At 1.2 s the nominal stands on its right sole (at −y): a push towards 100° points away from it, one towards
+    −100° towards it; mirrored (right first) the stance is the left sole and the verdicts swap with the side; a
+    push 20° off the walking axis and any push in double support are sagittal."""
+    from wbc.campaign.capture import STANCE_RELATIONS
+
+    robot, nominal = talos_walk
+    model = capture_model(robot, nominal, 0.6)
+    rows = [dict(ROWS[0], trial=20, direction_deg=100.0), dict(ROWS[0], trial=21, direction_deg=-100.0),
+            dict(ROWS[0], trial=22, direction_deg=100.0, first_side="right"),
+            dict(ROWS[0], trial=23, direction_deg=20.0), dict(ROWS[1], trial=24, direction_deg=90.0)]
+    for r in rows:
+        r.setdefault("first_side", "left")
+    table = _table(rows)
+    cap = push_capturability(table, nominal, model, robot)
+    names = [STANCE_RELATIONS[r] for r in cap["relation"]]
+    assert names == ["away from the stance foot", "towards the stance foot", "towards the stance foot",
+                     "sagittal or double support", "sagittal or double support"]
+    s = capture_summary(table, cap)
+    counted = sum(s["per_relation"][n]["n"] for n in STANCE_RELATIONS)
+    assert counted == s["capturable"]["n"] == sum(s["per_first_side"][f]["n"] for f in ("left", "right"))
+    assert "relative to the stance foot" in format_capture_report(s)

@@ -8,6 +8,15 @@ before its push a trial walks that walk. From it, at the push time: the CoM and 
 and its time derivative by central differences), the soles in contact (the controller's ``contact_active``) with
 their positions and headings (forward kinematics of the logged ``q``), and the time to the next touch-down of the
 swinging sole (the first later tick it is in contact again; from double support the model's shortest swing).
+The nominal walk swings the left foot first (``wbc sim walk``'s default); a trial whose walk swings the right foot
+first (its ``first_side`` column) is its sagittal mirror image (records/40: the plans agree to 1e-12 m), so its
+onset state is the nominal one mirrored about the walking axis y = 0 (y, ẏ and the soles' y and heading negated,
+the left sole's place taken by the right one).
+
+Besides the world octants, the capturable pushes are counted by where they point relative to the stance foot at
+their onset: **towards** the stance foot (the lateral component points to its side: the swing foot cannot step
+there without crossing), **away** from it, or **sagittal** (within 22.5° of the walking axis, or in double
+support).
 
 A trial survives here as a robot's operator would sign it: its verdict is ``survived`` and no plant joint went
 past its speed limit (``joint_speed_exceedances`` = 0, whatever verdict the row was recorded with).
@@ -25,10 +34,12 @@ from wbc.campaign.report import wilson_interval
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["NominalWalk", "load_nominal", "capture_model", "push_capturability", "operator_survival", "capture_summary",
-           "format_capture_report", "plot_capture_map", "boundary_forces", "OCTANTS"]
+           "format_capture_report", "plot_capture_map", "boundary_forces", "OCTANTS", "STANCE_RELATIONS"]
 
 #: Push-direction octants (deg, world: 0 = +x forward, 90 = +y left), centred on their names' directions.
 OCTANTS = ("forward", "forward-left", "left", "back-left", "back", "back-right", "right", "forward-right")
+#: Where a push points relative to the stance foot at its onset (module docstring).
+STANCE_RELATIONS = ("towards the stance foot", "away from the stance foot", "sagittal or double support")
 
 
 @dataclass(frozen=True)
@@ -106,7 +117,7 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
         ``{"trial": (m,), "steps": (m,) int (−1: not capturable within n_max), "distance_m": (m,) (the capture
         point after the push, outside the stance sole), "t_first_s": (m,), "states": [(com, com velocity, stance
         soles, t_first, push duration)] (the arguments of :func:`~wbc.analysis.capturability.capturability`)}`` for
-        the m rows that are not errors.
+        the m rows that are not errors, and ``"relation": (m,) int``, the index in :data:`STANCE_RELATIONS`.
 
     Raises:
         InvalidInputError: a column missing, a push outside the nominal walk's time span, another robot's log.
@@ -124,10 +135,11 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
         raise InvalidInputError(f"the results lack the push columns {need} (a push campaign's rows have them)")
     data = robot.model.createData()
     fids = [robot.frame_id(f) for f in (robot.left_sole, robot.right_sole)]
-    out = {"trial": [], "steps": [], "distance_m": [], "t_first_s": [], "states": []}
+    out = {"trial": [], "steps": [], "distance_m": [], "t_first_s": [], "relation": [], "states": []}
     durations = cols.get("push_duration", [0.1] * len(cols["trial"]))
-    for trial, outcome, f, deg, t0, dur in zip(cols["trial"], cols["outcome"], cols["force"], cols["direction_deg"],
-                                               cols["push_time_s"], durations):
+    sides = cols.get("first_side", ["left"] * len(cols["trial"]))  # rows of campaigns before the column: left
+    for trial, outcome, f, deg, t0, dur, side in zip(cols["trial"], cols["outcome"], cols["force"],
+                                                     cols["direction_deg"], cols["push_time_s"], durations, sides):
         if outcome == "error" or t0 is None:
             continue
         if not nominal.t[0] <= t0 <= nominal.t[-1]:
@@ -135,19 +147,27 @@ def push_capturability(table, nominal: NominalWalk, model, robot, n_max: int | N
                                     f"{nominal.t[0]}–{nominal.t[-1]} s")
         i = int(np.searchsorted(nominal.t, t0))
         pin.framesForwardKinematics(robot.model, data, nominal.q[i])
+        mirror = -1.0 if side == "right" else 1.0  # the mirror image of the nominal (left-first) walk
         stance, t_first = [], model.swing_time
-        for side in (0, 1):
-            if nominal.contact[i, side]:
-                m = data.oMf[fids[side]]
-                stance.append((m.translation[0], m.translation[1], math.atan2(m.rotation[1, 0], m.rotation[0, 0])))
+        for foot in (0, 1):
+            if nominal.contact[i, foot]:
+                m = data.oMf[fids[foot]]
+                stance.append((m.translation[0], mirror * m.translation[1],
+                               mirror * math.atan2(m.rotation[1, 0], m.rotation[0, 0])))
             else:
-                later = np.flatnonzero(nominal.contact[i:, side])
+                later = np.flatnonzero(nominal.contact[i:, foot])
                 t_first = float(nominal.t[i + later[0]] - nominal.t[i]) if later.size else model.swing_time
+        com, com_velocity = nominal.com[i] * (1.0, mirror, 1.0), nominal.com_velocity[i] * (1.0, mirror, 1.0)
         a = math.radians(deg)
-        r = capturability(model, nominal.com[i], nominal.com_velocity[i], (f * math.cos(a), f * math.sin(a)),
+        lateral = math.sin(a - stance[0][2]) if stance else 0.0  # the push's sideways part, stance sole's axes
+        if len(stance) != 1 or abs(lateral) < math.sin(math.radians(22.5)):
+            out["relation"].append(2)
+        else:  # the stance sole at +y of the walk (the nominal's left one, mirrored: its right one) or at −y
+            out["relation"].append(0 if (lateral > 0) == (bool(nominal.contact[i, 0]) == (mirror > 0)) else 1)
+        r = capturability(model, com, com_velocity, (f * math.cos(a), f * math.sin(a)),
                           0.1 if dur is None else dur, stance, t_first, n_max)
         out["trial"].append(trial)
-        out["states"].append((nominal.com[i], nominal.com_velocity[i], stance, t_first, 0.1 if dur is None else dur))
+        out["states"].append((com, com_velocity, stance, t_first, 0.1 if dur is None else dur))
         out["steps"].append(-1 if r.steps is None else r.steps)
         out["distance_m"].append(r.distance)
         out["t_first_s"].append(t_first)
@@ -206,20 +226,28 @@ def capture_summary(table, capture: dict) -> dict:
 
     Returns:
         ``{"overall", "capturable", "not_capturable", "share_capturable": (k, n, (lo, hi)), "per_steps": {N: ...},
-        "per_octant": {name: ...}}``, each entry ``{"n", "survived", "rate", "wilson95"}``.
+        "per_octant": {name: ...}, "per_relation": {relation: ...}, "per_first_side": {"left", "right"}}`` (the
+        last three on the capturable pushes; relations: :data:`STANCE_RELATIONS`), each entry ``{"n", "survived",
+        "rate", "wilson95"}``.
     """
     alive = operator_survival(table)
     cols = {k: table.column(k).to_pylist() for k in ("trial", "direction_deg")}
     deg = dict(zip(cols["trial"], cols["direction_deg"]))
+    first = dict(zip(cols["trial"], table.column("first_side").to_pylist() if "first_side" in table.column_names
+                     else ["left"] * len(cols["trial"])))
     trials, steps = capture["trial"], capture["steps"]
     ok = np.array([alive[t] for t in trials], dtype=bool)
     cap = steps >= 0
     octant = _octant(np.array([deg[t] for t in trials], dtype=float))
+    relation = np.asarray(capture["relation"])
+    side = np.array([first[t] for t in trials])
     n_cap = int(cap.sum())
     return {"overall": _rate(ok), "capturable": _rate(ok[cap]), "not_capturable": _rate(ok[~cap]),
             "share_capturable": (n_cap, int(cap.size), wilson_interval(n_cap, int(cap.size))),
             "per_steps": {int(s): _rate(ok[steps == s]) for s in sorted(set(steps.tolist()))},
-            "per_octant": {OCTANTS[o]: _rate(ok[cap & (octant == o)]) for o in range(8)}}
+            "per_octant": {OCTANTS[o]: _rate(ok[cap & (octant == o)]) for o in range(8)},
+            "per_relation": {name: _rate(ok[cap & (relation == r)]) for r, name in enumerate(STANCE_RELATIONS)},
+            "per_first_side": {s: _rate(ok[cap & (side == s)]) for s in ("left", "right")}}
 
 
 def _line(name: str, r: dict) -> str:
@@ -239,6 +267,10 @@ def format_capture_report(summary: dict) -> str:
     lines += [_line(f"{s}-step" if s >= 0 else "not capturable", r) for s, r in summary["per_steps"].items()]
     lines.append("capturable pushes per direction octant (0° = +x forward, 90° = +y left):")
     lines += [_line(name, r) for name, r in summary["per_octant"].items()]
+    lines.append("capturable pushes by direction relative to the stance foot at the onset:")
+    lines += [_line(name, r) for name, r in summary["per_relation"].items()]
+    lines.append("capturable pushes by the foot that swings first:")
+    lines += [_line(f"{name} first", r) for name, r in summary["per_first_side"].items()]
     return "\n".join(lines)
 
 

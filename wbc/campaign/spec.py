@@ -12,6 +12,7 @@ A campaign is a TOML file (or the same mapping from Python / CLI options)::
     steps = 8
     step_length = 0.25
     step_duration = 0.6
+    first_side = "random"         # the foot that swings first: left | right | random (drawn per trial)
 
     [factors]                     # what varies from trial to trial
     force = [300.0, 500.0]        # [lo, hi]: uniform; a number: fixed; {values = [...]}: uniform choice
@@ -33,7 +34,10 @@ A campaign is a TOML file (or the same mapping from Python / CLI options)::
 Draws use ``numpy.random.default_rng([seed, index])`` (a trial's parameters do not depend on any other trial);
 a sweep draws the pushes of repeat ``r`` from ``[seed, r]`` so every point meets the same pushes (common random
 numbers) and its point from the grid (``grid``: a ``ceil(sqrt)`` × … lattice of ``points`` points in row-major
-order over the params' boxes) or from ``[seed, 2**31 + p]`` (``random``).
+order over the params' boxes) or from ``[seed, 2**31 + p]`` (``random``). With ``first_side = "random"`` (the
+default) the first swing foot is drawn from ``[seed, index, 1]`` (a stream of its own: the factors' draws are those
+of a campaign without it): with a fixed first foot, the push window holds more of one foot's single supports than of
+the other's, and the lateral pushes towards the stance foot fall more on one side (records/40).
 """
 
 from __future__ import annotations
@@ -56,6 +60,7 @@ SCENARIO_KEYS = {
     "robot": (str, "talos"), "steps": (int, 8), "step_length": (float, 0.25), "step_duration": (float, 0.6),
     "step_adjust": (bool, True), "solver": (str, "fast"), "sole_margin": (float, None),
     "state": (str, "estimated"), "zmp_feedback": (float, None), "plant": (str, "realistic"),
+    "first_side": (str, "random"),
 }
 
 #: Factors a trial may vary: name → (unit, valid range). Push factors, then plant ≠ model (robustness).
@@ -164,6 +169,9 @@ def load_spec(source) -> CampaignSpec:
         raise InvalidInputError(f"{where}: scenario.step_duration must be in (0.2, 5] s, got {scenario['step_duration']}")
     if scenario["plant"] not in ("realistic", "ideal"):
         raise InvalidInputError(f"{where}: scenario.plant must be realistic or ideal, got {scenario['plant']!r}")
+    if scenario["first_side"] not in ("left", "right", "random"):
+        raise InvalidInputError(f"{where}: scenario.first_side must be left, right or random, got "
+                                f"{scenario['first_side']!r}")
     if scenario["state"] not in ("estimated", "ground-truth"):
         raise InvalidInputError(f"{where}: scenario.state must be estimated or ground-truth, got {scenario['state']!r}")
     if not -1.0 <= scenario["step_length"] <= 1.0:
@@ -217,7 +225,8 @@ def trial_params(spec: CampaignSpec, index: int) -> dict:
     """Parameters of trial ``index`` (0 ≤ index < ``spec.trials``): a pure function of (seed, index).
 
     Returns:
-        ``{"trial": index, <factor>: value, ...}``, plus ``"point"``, ``"repeat"`` and the swept params for a sweep.
+        ``{"trial": index, <factor>: value, ..., "first_side": "left" | "right"}``, plus ``"point"``, ``"repeat"``
+        and the swept params for a sweep.
 
     Raises:
         InvalidInputError: ``index`` out of range.
@@ -243,6 +252,10 @@ def trial_params(spec: CampaignSpec, index: int) -> dict:
             out[name] = vals[int(rng.integers(len(vals)))]
         else:
             out[name] = f
+    side = spec.scenario.get("first_side", "random")
+    if side == "random":  # a stream of its own (module docstring)
+        side = ("left", "right")[int(np.random.default_rng([spec.seed, draw_index, 1]).integers(2))]
+    out["first_side"] = side
     return out
 
 

@@ -85,7 +85,7 @@ def walk_trial(spec, params: dict) -> dict:
     (``scenario.plant``, realistic by default as in ``wbc sim walk``: :mod:`wbc.sim.actuators`, compensated by the
     controller) and the state the controller reads (``scenario.state``) are those of ``wbc sim walk``.
 
-    The push (when ``force`` > 0) starts at ``t_init + phase · (t_walk − push_duration)`` s, ``t_walk`` the walking
+    The walk swings ``first_side`` first (``left`` when absent). The push (when ``force`` > 0) starts at ``t_init + phase · (t_walk − push_duration)`` s, ``t_walk`` the walking
     steps' time ``(steps − 1) · step_duration``, in direction ``direction_deg`` (world, 0 = +x); plant errors
     (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m²) are applied to the MuJoCo model and
     sensor errors (``q_noise_deg`` deg, ``v_noise`` rad/s, ``delay`` ticks) to the controller
@@ -124,7 +124,8 @@ def walk_trial(spec, params: dict) -> dict:
         raise InvalidInputError("the measured-ZMP feedback (zmp_feedback, k_z) needs scenario.state = estimated")
     scenario = WalkScenario(sc["steps"], sc["step_length"], sc["step_duration"], push=force, push_time=push_time,
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
-                            step_adjust=sc["step_adjust"], stabilizer_gains=gains, **walk_kw)
+                            step_adjust=sc["step_adjust"], stabilizer_gains=gains,
+                            first_side=params.get("first_side", "left"), **walk_kw)
     options = walk_options_for(robot, sc["solver"], sc["sole_margin"])
     seed = int(params["trial"])
     plant_errors = {k: float(params.get(k, 0.0)) for k in ("mass_error", "payload", "friction", "armature")}
