@@ -20,7 +20,7 @@ from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
-__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
+__all__ = ["contact_rows_well_conditioned", "inverse_diagonal", "id_assemble", "id_command", "load_id_kernels",
            "output_violations", "contact_views", "task_cost", "IDTaskRows", "IDDynamics",
            "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
            "IDOutputCheck"]
@@ -37,10 +37,34 @@ IDOutputBuffers = namedtuple("IDOutputBuffers", "lbf ubf friction active out")
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def inverse_diagonal(M, L, y, out) -> bool:
+    """out (n,) ← diag(M⁻¹) of a symmetric positive definite M (n, n): (M⁻¹)_ii = ‖L⁻¹ e_i‖² with M = L Lᵀ
+    (Cholesky, from M's lower triangle). L (n, n) and y (n,) are workspace (L may be M, out may be y: overwritten).
+    Returns False (out not written) when M is not positive definite."""
+    n = M.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            L[i, j] = M[i, j]
+    if not cholesky_lower(L, n):
+        return False
+    for i in range(n):  # column i of L⁻¹: zero above i, forward substitution from row i
+        y[i] = 1.0 / L[i, i]
+        s = y[i] * y[i]
+        for r in range(i + 1, n):
+            t = 0.0
+            for p in range(i, r):
+                t -= L[r, p] * y[p]
+            y[r] = t / L[r, r]
+            s += y[r] * y[r]
+        out[i] = s  # (y[i] is not read again)
+    return True
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
     σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.contact_acceleration.independent_contact_rows` would keep
-    every row and need not run. With G = J Jᵀ: λ_min ≥ 1 / tr(G⁻¹) = 1 / ‖L⁻¹‖_F² (L Lᵀ = G) and λ_max ≤ tr(G), so
+    every row and need not run. With G = J Jᵀ: λ_min ≥ 1 / tr(G⁻¹) (:func:`inverse_diagonal`) and λ_max ≤ tr(G), so
     1 / tr(G⁻¹) ≥ ratio² tr(G) implies λ_min ≥ ratio² λ_max. False when that bound does not hold or G is not
     positive definite.
 
@@ -76,16 +100,11 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
                     j += 1
             tr += G[i, i]
             i += 1
-    if not cholesky_lower(G, m):
+    if not inverse_diagonal(G[:m, :m], G[:m, :m], y, y):
         return False
     tinv = 0.0
-    for col in range(m):  # column col of L⁻¹: forward substitution of e_col (zero above col)
-        for r in range(col, m):
-            t = 1.0 if r == col else 0.0
-            for p in range(col, r):
-                t -= G[r, p] * y[p]
-            y[r] = t / G[r, r]
-            tinv += y[r] * y[r]
+    for r in range(m):
+        tinv += y[r]
     return 1.0 / tinv >= ratio * ratio * tr
 
 
