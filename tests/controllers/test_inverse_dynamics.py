@@ -372,20 +372,3 @@ def test_gravity_fallback_matches_a_numpy_reference(robots, name):
         for c in contacts:
             ref = wrenches[c.name]
             assert np.abs(cmd.wrenches[c.name] - ref).max() <= 1e-9 * max(1.0, np.abs(ref).max())
-
-
-def test_inverse_diagonal_against_numpy():
-    """diag(M⁻¹) of the compiled Cholesky kernel against numpy's inverse on random symmetric positive definite
-    matrices (condition up to ~1e6) to 1e-9 relative; a matrix that is not positive definite is declined."""
-    from wbc.controllers.inverse_dynamics import inverse_diagonal
-
-    rng = np.random.default_rng(3)
-    for n in (1, 7, 38):
-        Q = np.linalg.qr(rng.normal(size=(n, n)))[0]
-        M = np.asfortranarray((Q * np.logspace(0, 6, n)) @ Q.T)
-        out = np.empty(n)
-        assert inverse_diagonal(M, np.empty((n, n)), np.empty(n), out)
-        ref = np.diag(np.linalg.inv(M))
-        assert np.abs(out - ref).max() <= 1e-9 * np.abs(ref).max()
-        M[0, 0] = -1.0
-        assert not inverse_diagonal(M, np.empty((n, n)), np.empty(n), out)

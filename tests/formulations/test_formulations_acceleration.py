@@ -1,7 +1,6 @@
-"""One assembly of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`): the QP the compiled tick
-(:func:`wbc.formulations.idkernel.id_assemble`) assembles is bitwise the QP of the general path
-(:meth:`InverseDynamicsQP.build` through the constraints' ``write``), and the compiled solver's answer is the
-optimum an independent solver (quadprog, Goldfarb–Idnani on the dense QP) finds on it.
+"""One assembly of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`): the QP a ``fast`` QP solved is
+bitwise the QP a ``daqp`` one builds at the same state (:meth:`InverseDynamicsQP.build`, every backend's), and the
+compiled solver's answer is the optimum an independent solver (quadprog, Goldfarb–Idnani on the dense QP) finds on it.
 
 Property test (hypothesis) over random task sets (CoM, torso orientation and posture tasks, plus random frame, position and orientation tasks, with random
 weights, gains, targets and acceleration feed-forwards), random contact sets (each sole active or released, random

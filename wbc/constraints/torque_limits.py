@@ -23,8 +23,7 @@ class TorqueLimits(IDConstraint):
 
     Attributes:
         tau_max: (nv − 6,) scaled effort limits (all joints). joints: indices (into τ) of the limited joints.
-        limits: (dim,) the limits of those joints. velocity_indices: (dim,) int64 their indices in v;
-        velocity_rows: the same, a slice when contiguous.
+        limits: (dim,) the limits of those joints. velocity_indices: (dim,) int64 their indices in v.
     """
 
     name = "torque_limits"
@@ -39,9 +38,6 @@ class TorqueLimits(IDConstraint):
         self.joints = np.flatnonzero(np.isfinite(effort) & (effort > 0))
         self.dim = int(self.joints.size)
         self.velocity_indices = (6 + self.joints).astype(np.int64)
-        self.velocity_rows = self.velocity_indices
-        if self.dim and np.array_equal(self.joints, np.arange(self.joints[0], self.joints[0] + self.dim)):
-            self.velocity_rows = slice(6 + int(self.joints[0]), 6 + int(self.joints[-1]) + 1)  # views, no gather
         self.limits = effort[self.joints]
 
     def write(self, ctx, C, l, u):

@@ -39,6 +39,7 @@ import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
 from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.formulations.idkernel import inverse_diagonal
 from wbc.solvers.compiled_id import kernel_iterations
 from wbc.solvers.fallback import daqp_attempt_iterations, tick_work_iterations
 from wbc.state import DynamicsState
@@ -47,10 +48,10 @@ from wbc.geometry import Flag
 from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution
 from wbc.tick import TickPath, TickResultBase
 
-__all__ = ["InverseDynamicsController", "IDCommand", "GravityWorkspace", "gravity_torques", "inverse_diagonal"]
+__all__ = ["InverseDynamicsController", "IDCommand", "GravityWorkspace", "gravity_torques"]
 
 #: smallest Cholesky pivot of BᵀB (relative to its diagonal entry; B = (J_c)_u, conditioned ~10) for which
-#: :func:`gravity_torques` solves the normal equations; below it numpy's SVD least squares answers
+#: :func:`gravity_torques` solves the normal equations
 NORMAL_EQUATION_PIVOT = 1e-8
 
 #: the workspace of :func:`gravity_torques`: L (nv, nv), y (nv,) of the Cholesky of M, dinv (nv,) ← diag(M⁻¹),
@@ -61,30 +62,6 @@ GravityWorkspace = namedtuple("GravityWorkspace", "L y dinv N w")
 def gravity_workspace(nv: int) -> GravityWorkspace:
     """A :data:`GravityWorkspace` for ``nv`` velocities."""
     return GravityWorkspace(np.empty((nv, nv)), np.empty(nv), np.empty(nv), np.empty((6, 6)), np.empty(6))
-
-
-@nb.njit(cache=True, fastmath=FASTMATH)
-def inverse_diagonal(M, L, y, out) -> bool:
-    """out (n,) ← diag(M⁻¹) of a symmetric positive definite M (n, n): (M⁻¹)_ii = ‖L⁻¹ e_i‖² with M = L Lᵀ
-    (Cholesky, from M's lower triangle). L (n, n) and y (n,) are workspace. Returns False (out not written) when M
-    is not positive definite."""
-    n = M.shape[0]
-    for i in range(n):
-        for j in range(i + 1):
-            L[i, j] = M[i, j]
-    if not cholesky_lower(L, n):
-        return False
-    for i in range(n):  # column i of L⁻¹: zero above i, forward substitution from row i
-        y[i] = 1.0 / L[i, i]
-        s = y[i] * y[i]
-        for r in range(i + 1, n):
-            t = 0.0
-            for p in range(i, r):
-                t -= L[r, p] * y[p]
-            y[r] = t / L[r, r]
-            s += y[r] * y[r]
-        out[i] = s
-    return True
 
 
 @nb.njit(cache=True, fastmath=FASTMATH)
@@ -356,11 +333,9 @@ class InverseDynamicsController:
             return
         iv = idx[out]
         ws = self._safe[2]
-        dinv = ws.dinv
-        if inverse_diagonal(st.M, ws.L, ws.y, dinv):
-            i_eff = 1.0 / dinv[iv]
-        else:  # M not positive definite (Cholesky): numpy's inverse
-            i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[iv]
+        if not inverse_diagonal(st.M, ws.L, ws.y, ws.dinv):  # (M of a model is positive definite)
+            return
+        i_eff = 1.0 / ws.dinv[iv]
         j = iv - 6
         lim = self.qp.tau_max[j]
         lim = np.where(np.isfinite(lim) & (lim > 0), lim, np.inf)
@@ -396,7 +371,7 @@ class InverseDynamicsController:
 
     def fallback(self, message: str = "") -> IDCommand:
         """Contact-consistent gravity compensation at the current state (module docstring): :func:`gravity_torques`
-        on preallocated buffers (numpy's inverse and SVD least squares when it declines)."""
+        on preallocated buffers (h_a clipped, no contact wrench, when it declines)."""
         qp, st = self.qp, self.state
         nv = qp.nv
         active = [c for c in qp.contacts if c.active]
@@ -406,7 +381,9 @@ class InverseDynamicsController:
             J[6 * i:6 * i + 6] = c.jacobian(st)
         tau = np.empty(nv - 6)
         if gravity_torques(st.M, st.h, st.v, J, k, self.dt, qp.tau_max, ws, W, tau) != 0:
-            tau, W = self._gravity_torques_numpy(J[:k])
+            # (never for a model: M and the soles' normal equations, of full-rank adjoints, are positive definite)
+            lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
+            tau[:], W[:] = np.clip(st.h[6:], -lim, lim), 0.0
         wrenches = {c.name: np.zeros(6) for c in qp.contacts}
         for i, c in enumerate(active):
             R = st.data.oMf[c.frame_id].rotation  # LOCAL sole wrench -> world axes
@@ -414,17 +391,3 @@ class InverseDynamicsController:
         return IDCommand(tau=tau, dv=np.zeros(nv), forces=np.zeros(qp.n - nv), wrenches=wrenches, ok=False,
                          message=message or "fallback", dynamics_residual=float("nan"),
                          path=TickPath("fallback", fallback="gravity"))
-
-    def _gravity_torques_numpy(self, Jc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(τ, W) of :func:`gravity_torques` by numpy (when it declines) on the active sole Jacobians Jc (k, nv)."""
-        st, qp = self.state, self.qp
-        h = st.h
-        tau = h[6:].copy()
-        W = np.zeros(0)
-        if Jc.shape[0]:
-            W = np.linalg.lstsq(Jc[:, :6].T, h[:6], rcond=None)[0]
-            tau -= (Jc.T @ W)[6:]
-        i_eff = 1.0 / np.diag(np.linalg.inv(st.M))[6:]
-        tau -= 0.5 * i_eff / self.dt * st.v[6:]
-        lim = np.where(np.isfinite(qp.tau_max) & (qp.tau_max > 0), qp.tau_max, np.inf)
-        return np.clip(tau, -lim, lim), W

@@ -17,10 +17,10 @@ G_k the corner-force → sole-wrench map, the torques are not variables (Feather
            J_t v̇ = r_t                                               task:<t>                 (hard tasks)
 
 With ≥ 2 active contacts the nearly dependent directions of (5) are dropped; ε_a, ε_f > 0 make the Hessian positive
-definite. Every constraint is a named object of :mod:`wbc.constraints` writing its rows in place into preallocated
-blocks (:meth:`InverseDynamicsQP.build`); with ``solver="fast"`` the compiled assembly
-(:func:`~wbc.formulations.idkernel.id_assemble`) writes the same numbers from the same gathered rows
-(:mod:`wbc.formulations.id_rows`). A tick: assemble → :attr:`InverseDynamicsQP.chain`
+definite. Every constraint is a named object of :mod:`wbc.constraints`. One assembly serves every backend
+(:meth:`InverseDynamicsQP.build`): the per-tick rows gathered (:mod:`wbc.formulations.id_rows`), the cost and the
+state-dependent blocks written by :func:`~wbc.formulations.idkernel.id_assemble`, the rows of hard tasks and added
+constraints by their ``write``. A tick: assemble → :attr:`InverseDynamicsQP.chain`
 (:class:`~wbc.solvers.fallback.FallbackChain`, :class:`~wbc.solvers.compiled_id.CompiledIDSolver` first with
 ``fast``) → decode (:meth:`InverseDynamicsQP.solution_from`). Derivations and the chain's rules:
 docs/inverse-dynamics-controller.md.
@@ -37,7 +37,7 @@ from wbc.compiled import CHECK_TYPES, specialise
 from wbc.constraints.barrier import AccelerationBarrier
 from wbc.constraints.base import IDConstraint, IDContext, InequalityConstraint
 from wbc.constraints.contact_acceleration import DEPENDENT_CONTACT_RATIO, ContactAcceleration, independent_contact_rows
-from wbc.constraints.floating_base import FloatingBaseDynamics, contact_force_columns
+from wbc.constraints.floating_base import FloatingBaseDynamics
 from wbc.constraints.friction import FrictionPyramid
 from wbc.constraints.hard_task import HardTask
 from wbc.constraints.joint_acceleration_bounds import JointAccelerationLimits
@@ -46,9 +46,8 @@ from wbc.constraints.unilaterality import Unilaterality
 from wbc.constraints.sole_contact import SoleContact
 from wbc.formulations.id_rows import IDProblemRows
 from wbc.formulations.idkernel import (IDArrays, IDAssemblyWork, IDDynamics, IDLimits, IDOutputCheck, PAR_BRAKING,
-                                       PAR_EPS_A, PAR_EXTRA_ROWS, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON,
-                                       PROJECT_CONTACT_RHS, contact_rows_well_conditioned, id_assemble, id_command,
-                                       load_id_kernels, task_cost)
+                                       PAR_EPS_A, PAR_JOINT_LIMITS, PAR_SPEED_HORIZON, id_assemble, id_command,
+                                       load_id_kernels)
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
@@ -98,8 +97,8 @@ _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: sh
 #: the ID QP's DAQP settings (benchmarks/README.md)
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
 
-#: the compiled assembly and solver have been loaded in this process (:meth:`InverseDynamicsQP._load_compiled`)
-_COMPILED_ID_LOADED = False
+#: the kernels :meth:`InverseDynamicsQP._load_compiled` has loaded in this process ("id_assemble", "id_solve")
+_COMPILED_ID_LOADED: set = set()
 
 
 class InverseDynamicsQP:
@@ -184,30 +183,28 @@ class InverseDynamicsQP:
         self._lb = np.full(n, -np.inf)
         self._ub = np.full(n, np.inf)
         self._JcT = np.zeros((nv, 12 * nc))
-        self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT, jacobians={})
+        load_id_kernels()
+        self._rows = rows = IDProblemRows(self)
+        self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
+        # the constraints' context: views of the gathered contact data (Jacobians, eq. 5's offsets) and of J_cᵀ
+        self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT,
+                              jacobians={c.name: rows.Jc[k] for k, c in enumerate(self.contacts)},
+                              offsets={c.name: rows.cdrift[k] for k, c in enumerate(self.contacts)})
         for con in self.friction:  # constant while μ is: rewritten only when it changes (_refresh_contact_rows)
             con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
             con.written = con.key()
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
-        load_id_kernels()
-        self._rows = IDProblemRows(self)
-        self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
-        self._compiled = None  # id_assemble's (limits, arrays, work) on the compiled route
-        if solver == "fast" and (self.torque_limits.dim == 0 or isinstance(self.torque_limits.velocity_rows, slice)):
-            self._new_compiled()
-        # why a tick of this QP is not on the compiled route ('' for a backend chosen by name or object)
-        self._general_reason = ("no compiled tick: torque-limited joints not contiguous in v"
-                                if solver == "fast" and self._compiled is None else "")
+        self._fast = solver == "fast"  # the compiled solver is the chain's first rung
+        self._new_buffers()
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
-        self._m = 6  # equality rows of the last build
+        self._m = self._m_contacts = 6  # equality rows of the last build, and the row after its contact rows
         self.chain.hard_set_x = np.zeros(n)
         #: violations found by :meth:`verify` on the last solve ([] when it passed).
         self.last_violations: list[tuple[str, float]] = []
         self.kernel_max_iterations = 100
-        self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         self._id_command = None  # id_command specialised at the first decode (solution_from)
 
     @property
@@ -265,43 +262,47 @@ class InverseDynamicsQP:
             return
         raise ValueError(f"{constraint!r} is not in the QP")
 
-    def _new_compiled(self) -> None:
-        """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and the compiled
-        solver of their sizes as :attr:`chain`'s first rung."""
+    def _new_buffers(self) -> None:
+        """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and (``fast``)
+        the compiled solver of their sizes as :attr:`chain`'s first rung."""
         tl, jl, rows = self.torque_limits, self.joint_acceleration_limits, self._rows
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
-                              jl.speed_horizon, 0.0])
+                              jl.speed_horizon])
         self._par_written = None  # the values _assemble last wrote into _par
         self._qp_views: dict[int, QPData] = {}  # _assemble's QPData of these buffers by equality row count
+        self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
-        self._compiled = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
-                          IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
-                                   self._JcT),
-                          IDAssemblyWork(rows.Hw, rows.gw, rows.gram, rows.gram_y, np.zeros(jl.dim), np.zeros(jl.dim)))
+        self._buffers = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
+                         IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
+                                  self._JcT),
+                         IDAssemblyWork(rows.Hw, rows.gw, rows.gram, rows.gram_y, np.zeros(jl.dim), np.zeros(jl.dim)))
         self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
-        self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
+        if self._fast:
+            self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
         self._load_compiled()
 
     def _load_compiled(self) -> None:
-        """Load the compiled assembly and solver once per process: one call of each on the buffers at a neutral
+        """Load the compiled assembly (and solver) once per process: one call of each on the buffers at a neutral
         state (M = I column-major, h = v = 0, no contact active), every buffer they write restored afterwards."""
-        global _COMPILED_ID_LOADED
-        if _COMPILED_ID_LOADED:
+        solver = self.chain.compiled if self._fast else None
+        wanted = {"id_assemble", "id_solve"} if solver else {"id_assemble"}
+        if wanted <= _COMPILED_ID_LOADED:
             return
-        nv, rows, solver = self.nv, self._rows, self.chain.compiled
-        arrays = [a for a in (*rows.tasks, *rows.contacts, *self._compiled[0], *self._compiled[1],
-                              *self._compiled[2], *solver.buffers) if isinstance(a, np.ndarray)]
+        nv, rows = self.nv, self._rows
+        arrays = [a for a in (*rows.tasks, *rows.contacts, *self._buffers[0], *self._buffers[1], *self._buffers[2],
+                              *(solver.buffers if solver else ())) if isinstance(a, np.ndarray)]
         saved = [a.copy() for a in arrays]
         try:
             m = id_assemble(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv),
                                                    self.robot.q_ref.copy(), np.zeros(nv), 0.002),
-                            rows.contacts, *self._compiled)
-            H, g, A, b, C, l, u, lb, ub, _ = self._compiled[1]
+                            rows.contacts, *self._buffers)
+            H, g, A, b, C, l, u, lb, ub, _ = self._buffers[1]
             try:
-                solver.solve(QPData(H, g, A[:max(m, 6)], b[:max(m, 6)], C, l, u, lb, ub))
+                if solver:
+                    solver.solve(QPData(H, g, A[:abs(m)], b[:abs(m)], C, l, u, lb, ub))
             except SolverError:  # any answer loads the kernel; this neutral QP's own is not used
                 pass
-            _COMPILED_ID_LOADED = True
+            _COMPILED_ID_LOADED.update(wanted)
         finally:
             for a, a0 in zip(arrays, saved):
                 np.copyto(a, a0)
@@ -315,8 +316,7 @@ class InverseDynamicsQP:
         r0 = self._r0
         C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
         self._C, self._l, self._u = C, l, u
-        if self._compiled is not None:  # its argument tuples hold the blocks: new blocks, new buffers
-            self._new_compiled()
+        self._new_buffers()  # id_assemble's argument tuples hold the blocks: new blocks, new tuples
 
     def _refresh_contact_rows(self) -> None:
         """Rewrite the force bounds and friction rows whose contact parameters changed since they were written."""
@@ -368,8 +368,7 @@ class InverseDynamicsQP:
         if rows > self._A.shape[0]:
             self._A = np.zeros((rows, self.n))
             self._b = np.zeros(rows)
-            if self._compiled is not None:  # its argument tuples hold the blocks: new blocks, new buffers
-                self._new_compiled()
+            self._new_buffers()  # id_assemble's argument tuples hold the blocks: new blocks, new tuples
 
     def contact(self, name: str) -> SoleContact:
         """The contact called ``name``. Raises InvalidInputError (listing the names) when there is none."""
@@ -378,59 +377,16 @@ class InverseDynamicsQP:
                 return c
         raise InvalidInputError(f"no contact {name!r}; contacts: {[c.name for c in self.contacts]}")
 
-    def build(self, state: DynamicsState, dt: float, *, gathered: bool = False):
-        """(H, g, A, b, C, l, u, lb, ub) of the QP at ``state`` (module docstring), the preallocated arrays written
-        in place by the cost (:func:`~wbc.formulations.idkernel.task_cost`) and every constraint (constant blocks are
-        not rewritten). ``gathered``: the task rows and contact data are already gathered at ``state``."""
-        rows = self._rows
-        if not gathered:
-            rows.gather(self, state)
-        task_cost(*rows.tasks, state.v, self.eps_a, rows.Hw, rows.gw, self._H, self._g)
-        ctx = self._context(state, dt)
-        A, b = self._A, self._b
-        self.dynamics.write(ctx, A[0:6], b[0:6], None)
-        i = 6
-        for con in self.contact_accelerations:
-            if con.enabled:
-                con.rows = slice(i, i + con.dim)
-                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
-                i += con.dim
-        # ≥ 2 active contacts: nearly dependent directions dropped (none when certified well conditioned)
-        if i > 12 and not contact_rows_well_conditioned(rows.Jc, rows.active, DEPENDENT_CONTACT_RATIO, rows.gram,
-                                                        rows.gram_y):
-            kept = independent_contact_rows(A[6:i], b[6:i])
-            if kept < i - 6:
-                i = 6 + kept
-                for con in self.contact_accelerations:  # (rows rotated: the labels are those of the blocks)
-                    if con.enabled:
-                        con.rows = slice(min(con.rows.start, i), min(con.rows.stop, i))
-        i = self._write_gathered(ctx, i)
-        self._m = i
-        C, l, u = self._C, self._l, self._u
-        tl = self.torque_limits
-        tl.write(ctx, C[tl.rows], l[tl.rows], u[tl.rows])
-        lb, ub = self._lb, self._ub
-        self._refresh_contact_rows()
-        if self.joint_limits:
-            jl = self.joint_acceleration_limits
-            lb[jl.iv], ub[jl.iv] = jl.bounds(state, dt)
-        return self._H, self._g, A[:i], b[:i], C, l, u, lb, ub
+    def build(self, state: DynamicsState, dt: float) -> QPData:
+        """The QP at ``state`` for control period ``dt`` (s) (module docstring), as every backend gets it: views of
+        the preallocated arrays, written in place (constant blocks are not rewritten)."""
+        return self._assemble(state, dt)[0]
 
-    def _context(self, state: DynamicsState, dt: float) -> IDContext:
-        """The constraints' context from the gathered contact data (J_cᵀ, sole Jacobians, eq. 5's offsets)."""
-        rows = self._rows
+    def _write_added(self, state: DynamicsState, dt: float, i: int) -> int:
+        """Write the rows no compiled body writes: hard tasks' and added equalities' rows of A from row ``i`` on,
+        added inequalities' rows of C. Returns the row after the last equality row."""
         ctx = self._ctx
         ctx.state, ctx.dt = state, dt
-        JcT, jac, offsets = self._JcT, ctx.jacobians, ctx.offsets
-        for k, c in enumerate(self.contacts):
-            contact_force_columns(rows.Jc[k], rows.Gc[k], JcT, 12 * k)
-            jac[c.name] = rows.Jc[k]
-            offsets[c.name] = rows.cdrift[k]
-        return ctx
-
-    def _write_gathered(self, ctx: IDContext, i: int) -> int:
-        """Write the rows no compiled body writes (hard tasks' and added equalities' rows of A from row ``i`` on,
-        added inequalities' rows of C), for both assemblies. Returns the row after the last equality row."""
         A, b = self._A, self._b
         for con in (*self.hard_tasks, *self.extra_equalities):
             if con.enabled:
@@ -475,12 +431,7 @@ class InverseDynamicsQP:
         the arrays of this tick's failed full QP at this same ``state`` object and ``dt``."""
         t0 = perf_counter()
         same_tick = reuse_assembly and self._assembled == (id(state), dt)
-        if same_tick:
-            m = self._m
-            H, g, A, b, C, l, u, lb, ub = (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                           self._lb, self._ub)
-        else:
-            H, g, A, b, C, l, u, lb, ub = self.build(state, dt)
+        H, g, A, b, C, l, u, lb, ub = self._qp_views[self._m] if same_tick else self.build(state, dt)
         reused = self.chain.relaxed_bounds
         if same_tick and reused is not None:
             l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
@@ -532,44 +483,43 @@ class InverseDynamicsQP:
             return sol
         sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
         sol.path = TickPath("general", solver)
-        why = self.chain.compiled_reason or self._general_reason
+        why = self.chain.compiled_reason
         sol.reason = f"{why} → {solver} {step}" if why else ""
         return self._guard_full(state, sol, qp)
 
     def _assemble(self, state: DynamicsState, dt: float) -> tuple[QPData, str]:
-        """The QP at ``state`` (views of the arrays), by :func:`~wbc.formulations.idkernel.id_assemble` on the compiled
-        route, else by :meth:`build`; and why the compiled solver is not asked ('' when it is)."""
-        compiled = self._compiled
-        if compiled is None:
-            return QPData(*self.build(state, dt)), ""
+        """The one assembly (:meth:`build`): the rows gathered, :func:`~wbc.formulations.idkernel.id_assemble`, the
+        dependent contact directions dropped, :meth:`_write_added`. Returns the QP and why the compiled solver is not
+        asked ('' when it is)."""
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
         par = self._par
-        extra = 0
-        if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # after the active contacts' rows
-            m0 = 6 + 6 * int(np.count_nonzero(rows.active))
-            extra = self._write_gathered(self._context(state, dt), m0) - m0
         jl = self.joint_acceleration_limits
-        self.chain.compiled.max_iterations = self.kernel_max_iterations
-        values = (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon, extra)
+        values = (self.eps_a, jl.braking_acceleration, self.joint_limits, jl.speed_horizon)
         if values != self._par_written:  # attributes assignable between ticks: written when one changed
-            (par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON],
-             par[PAR_EXTRA_ROWS]) = values
+            par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = values
             self._par_written = values
-        args = (rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *compiled)
+        args = (rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *self._buffers)
         if self._id_assemble is None:  # the buffers' and the state's types are fixed (with kernel type checks on,
             # the dispatcher, which resolves them on every call)
             self._id_assemble = id_assemble if CHECK_TYPES else specialise(id_assemble, *args)
         m = self._id_assemble(*args)
-        if m == PROJECT_CONTACT_RHS:  # build drops the dependent directions
-            return QPData(*self.build(state, dt, gathered=True)), "kernel: dependent contact rows"
+        skip = ""
+        if m < 0:  # ≥ 2 active contacts not certified well conditioned: the nearly dependent directions dropped
+            m = 6 + independent_contact_rows(self._A[6:-m], self._b[6:-m])  # (rows 6 .. −m: the contacts')
+            skip = "kernel: dependent contact rows"
+        self._m_contacts = m
+        if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # after the contacts' rows
+            m = self._write_added(state, dt, m)
         self._m = m
+        if self._fast:
+            self.chain.compiled.max_iterations = self.kernel_max_iterations
         qp = self._qp_views.get(m)
-        if qp is None:  # views of the buffers, one per equality row count (the buffers live until _new_compiled)
+        if qp is None:  # views of the buffers, one per equality row count (the buffers live until _new_buffers)
             qp = self._qp_views[m] = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                             self._lb, self._ub)
-        return qp, ""
+        return qp, skip
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
         """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
@@ -619,6 +569,11 @@ class InverseDynamicsQP:
         if not include_relaxable:
             l, u, lb, ub = self._relax(l, u, lb, ub)
         eq, ineq, box = [], [], []
+        i, end = 6, self._m_contacts
+        for con in self.contact_accelerations:  # (rows rotated when dependent ones were dropped: the blocks' labels)
+            if con.enabled:
+                con.rows = slice(min(i, end), min(i + 6, end))
+                i += 6
         for con in self.constraints:
             if not con.enabled or (con.relaxable and not include_relaxable):
                 continue

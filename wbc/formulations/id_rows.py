@@ -1,6 +1,5 @@
 """The per-tick inputs of the inverse-dynamics QP (:class:`IDProblemRows`), gathered once per tick into the stacked
-buffers both assemblies read (:meth:`wbc.formulations.acceleration.InverseDynamicsQP.build` and
-:func:`wbc.formulations.idkernel.id_assemble`)."""
+buffers its assembly reads (:func:`wbc.formulations.idkernel.id_assemble`)."""
 
 from __future__ import annotations
 

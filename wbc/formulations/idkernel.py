@@ -1,11 +1,8 @@
-"""Compiled assembly of the inverse-dynamics QP of :mod:`wbc.formulations.acceleration` (its ``fast`` route,
-:func:`id_assemble`), the torques of a solution (:func:`id_command`) and the output check (:func:`output_violations`).
-
-:func:`id_assemble` writes the cost (:func:`task_cost`) and the state-dependent constraint blocks with the same
-compiled bodies of :mod:`wbc.constraints` that the constraints' ``write`` call in
-:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.build`, from the task rows and contact data gathered for both
-(:mod:`wbc.formulations.id_rows`): bitwise the arrays ``build`` writes at the same state
-(``tests/formulations/test_formulations_acceleration.py``).
+"""Compiled assembly of the inverse-dynamics QP of :mod:`wbc.formulations.acceleration` (:func:`id_assemble`, the
+one assembly of every backend), the torques of a solution (:func:`id_command`) and the output check
+(:func:`output_violations`). :func:`id_assemble` writes the cost (:func:`task_cost`) and the state-dependent
+constraint blocks with the compiled bodies of :mod:`wbc.constraints`, from the task rows and contact data gathered by
+:mod:`wbc.formulations.id_rows`.
 """
 
 from __future__ import annotations
@@ -23,8 +20,8 @@ from wbc.constraints.torque_limits import torque_limit_rows
 from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
-__all__ = ["contact_rows_well_conditioned", "id_assemble", "id_command", "load_id_kernels",
-           "output_violations", "contact_views", "task_cost", "PROJECT_CONTACT_RHS", "IDTaskRows", "IDDynamics",
+__all__ = ["contact_rows_well_conditioned", "inverse_diagonal", "id_assemble", "id_command", "load_id_kernels",
+           "output_violations", "contact_views", "task_cost", "IDTaskRows", "IDDynamics",
            "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
            "IDOutputCheck"]
 
@@ -40,10 +37,34 @@ IDOutputBuffers = namedtuple("IDOutputBuffers", "lbf ubf friction active out")
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+def inverse_diagonal(M, L, y, out) -> bool:
+    """out (n,) ← diag(M⁻¹) of a symmetric positive definite M (n, n): (M⁻¹)_ii = ‖L⁻¹ e_i‖² with M = L Lᵀ
+    (Cholesky, from M's lower triangle). L (n, n) and y (n,) are workspace (L may be M, out may be y: overwritten).
+    Returns False (out not written) when M is not positive definite."""
+    n = M.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            L[i, j] = M[i, j]
+    if not cholesky_lower(L, n):
+        return False
+    for i in range(n):  # column i of L⁻¹: zero above i, forward substitution from row i
+        y[i] = 1.0 / L[i, i]
+        s = y[i] * y[i]
+        for r in range(i + 1, n):
+            t = 0.0
+            for p in range(i, r):
+                t -= L[r, p] * y[p]
+            y[r] = t / L[r, r]
+            s += y[r] * y[r]
+        out[i] = s  # (y[i] is not read again)
+    return True
+
+
+@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """Certificate that the stacked rows J (m × nv) of the active contacts have every singular value
     σ ≥ ``ratio`` σ_max, so that :func:`wbc.constraints.contact_acceleration.independent_contact_rows` would keep
-    every row and need not run. With G = J Jᵀ: λ_min ≥ 1 / tr(G⁻¹) = 1 / ‖L⁻¹‖_F² (L Lᵀ = G) and λ_max ≤ tr(G), so
+    every row and need not run. With G = J Jᵀ: λ_min ≥ 1 / tr(G⁻¹) (:func:`inverse_diagonal`) and λ_max ≤ tr(G), so
     1 / tr(G⁻¹) ≥ ratio² tr(G) implies λ_min ≥ ratio² λ_max. False when that bound does not hold or G is not
     positive definite.
 
@@ -79,16 +100,11 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
                     j += 1
             tr += G[i, i]
             i += 1
-    if not cholesky_lower(G, m):
+    if not inverse_diagonal(G[:m, :m], G[:m, :m], y, y):
         return False
     tinv = 0.0
-    for col in range(m):  # column col of L⁻¹: forward substitution of e_col (zero above col)
-        for r in range(col, m):
-            t = 1.0 if r == col else 0.0
-            for p in range(col, r):
-                t -= G[r, p] * y[p]
-            y[r] = t / G[r, r]
-            tinv += y[r] * y[r]
+    for r in range(m):
+        tinv += y[r]
     return 1.0 / tinv >= ratio * ratio * tr
 
 
@@ -108,12 +124,8 @@ def contact_views(cbuf, nc, nv):
     return Jc, Gc, Rc, cdrift, ckd
 
 
-#: :func:`id_assemble` exit code: two or more active contacts whose stacked rows are not certified
-#: well conditioned (:func:`contact_rows_well_conditioned`); the caller's ``build`` drops the dependent directions
-PROJECT_CONTACT_RHS = -10
-
 #: entries of :func:`id_assemble`'s ``par`` vector
-PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON, PAR_EXTRA_ROWS = range(6)
+PAR_EPS_A, PAR_BRAKING, PAR_JOINT_LIMITS, PAR_CONTACT_RATIO, PAR_SPEED_HORIZON = range(5)
 #: rows of the ``R`` array of :func:`task_cost` (one column per task row)
 R_ERROR, R_ERROR_RATE_FF, R_DRIFT, R_ACC_FF, R_KP, R_KD, R_WEIGHT = range(7)
 
@@ -190,8 +202,7 @@ def id_command(M, h, JcT, Gc, Rc, active, x, tau, wrench):
 def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     """Write the state-dependent blocks of the ID QP (module docstring) into the formulation's arrays: the cost, J_cᵀ
     and eqs. 4, 5 (active contacts), 6 and 9 (when ``par[PAR_JOINT_LIMITS]`` ≠ 0). The constant blocks (ε_f I,
-    friction rows, force bounds) and the rows of hard tasks and added constraints (``par[PAR_EXTRA_ROWS]`` rows of A
-    after the active contacts') are the formulation's, written before the call.
+    friction rows, force bounds) and the rows of hard tasks and added constraints are the formulation's.
 
     Args (namedtuples):
         tasks (:data:`IDTaskRows`): the stacked task rows of :func:`task_cost`.
@@ -199,15 +210,15 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
         contacts (:data:`IDContactData`): cbuf, the contact data of :func:`contact_views` (LOCAL sole Jacobians,
             corner maps, sole rotations world ← sole, eq. 5's cdrift = −J̇v − K_p e and K_d); active (nc,) bool.
         limits (:data:`IDLimits`): idx int64 [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited
-            joints, then the q and v indices of the joint-bounded ones; lim (nt,) their torque limits (N·m); par (6,)
+            joints, then the q and v indices of the joint-bounded ones; lim (nt,) their torque limits (N·m); par (5,)
             the settings ``PAR_*``; qmin, qmax, vmax (k,) joint-limit data (eq. 9).
         qp (:data:`IDArrays`): H, g, A, b, C, l, u, lb, ub, JcT, written in place (A has room for every contact).
         work (:data:`IDAssemblyWork`): Hw (nv, nv), gw (nv,), gram (6 nc, 6 nc), gram_y (6 nc,), jlo, jhi (k,).
 
     Returns:
-        m, the number of equality rows (6 + 6 per active contact + ``par[PAR_EXTRA_ROWS]``), or PROJECT_CONTACT_RHS
-        when two or more active contacts are not certified well conditioned (:func:`contact_rows_well_conditioned`;
-        the torque rows and bounds are then not written).
+        m, the number of equality rows written (6 + 6 per active contact); −m when two or more active contacts are
+        not certified well conditioned (:func:`contact_rows_well_conditioned`: the caller drops the dependent
+        directions of rows 6 .. m).
     """
     Jt, R, pidx, rt = tasks
     M, h, q, v, dt = dynamics
@@ -230,8 +241,6 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
         if active[c]:
             contact_acceleration_rows(Jc[c], cdrift[c], ckd[c], v, A, b, m)
             m += 6
-    if m > 12 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
-        return PROJECT_CONTACT_RHS
     torque_limit_rows(M, h, JcT, vrows, lim, C, l, u, 0)
     if par[PAR_JOINT_LIMITS] != 0.0:
         joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), par[PAR_BRAKING], dt, par[PAR_SPEED_HORIZON],
@@ -239,7 +248,9 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]
-    return m + int(par[PAR_EXTRA_ROWS])
+    if m > 12 and not contact_rows_well_conditioned(Jc, active, par[PAR_CONTACT_RATIO], gram, gram_y):
+        return -m
+    return m
 
 
 @nb.njit(cache=True, nogil=True)
@@ -319,13 +330,9 @@ def load_id_kernels() -> None:
     """Load, once per process, the kernels called from Python on arrays of a real call's types (M column-major), at
     construction of an :class:`~wbc.formulations.acceleration.InverseDynamicsQP`, not inside its first tick."""
     nv = 8
-    Jt, R, pidx = np.zeros((1, nv)), np.zeros((7, 2)), np.zeros(1, np.int64)
-    task_cost(Jt, R, pidx, np.zeros(2), np.zeros(nv), 1e-6, np.empty((nv, nv)), np.empty(nv),
-              np.zeros((nv + 12, nv + 12)), np.zeros(nv + 12))
     active = np.ones(1, np.bool_)
     id_command(np.asfortranarray(np.eye(nv)), np.zeros(nv), np.zeros((nv, 12)), np.zeros((1, 6, 12)),
                np.zeros((1, 3, 3)), active, np.zeros(nv + 12), np.empty(nv - 6), np.empty((1, 6)))
-    contact_rows_well_conditioned(np.ones((1, 6, nv)), active, 1e-2, np.zeros((6, 6)), np.zeros(6))
     buffers = IDOutputBuffers(np.zeros(12), np.zeros(12), np.zeros((1, 16, 12)), active, np.zeros((4, 2)))
     for dv, f, tau, h in (output_inputs(nv, 1), output_inputs(nv, 1, strided=True)):
         output_violations(dv, f, tau, 0.0, h, np.zeros(1, np.int64), np.ones(1), 1e-6, buffers)
