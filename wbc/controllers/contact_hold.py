@@ -5,7 +5,7 @@ q⁺ = pin.integrate(q, v dt); when one drifts from where its row sends it by mo
 the contact rows' right-hand sides are corrected by the measured drift and the tick is solved again (a Newton step
 on e⁺(v) = (1 − K dt) e, ≤ 3 iterations); dependent contact rows get right-hand sides projected onto the range of
 J_c (least squares). A tick whose drift still exceeds ``sole_drift_tolerance`` is solved inside trust regions
-|v_i| ≤ ρ (``_hold_contacts``), else it fails with :class:`DriftFailure`."""
+|v_i| ≤ ρ (``_held_command``), else it fails with :class:`DriftFailure`."""
 
 from __future__ import annotations
 
@@ -163,15 +163,6 @@ class ContactHold:
             rows = self._contact_rows
             self._b[rows] = basis @ (basis.T @ self._b[rows])
 
-    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
-                      held: bool = False) -> TickResult:
-        """v's second-order contact correction (when on, and not ``held``: J_c v = 0 asked) then its trust region
-        (:meth:`_hold_contacts`); ``safe``: their re-solves are the safe command's QP's (``_solve_constraints_only``,
-        bounded by the tick's count), else the tick's QP's."""
-        if self.contact_correction > 0 and self._contacts and not held:
-            v = self._correct_contacts(config, dt, v, safe)
-        return self._hold_contacts(config, dt, v, relaxed, safe)
-
     def _may_resolve(self, safe: bool, stage: str) -> bool:
         """May a re-solve start: the safe command's (``safe``) as a 'retry', else as a 'stage' (its cut recorded as
         ``stage`` when not), at the CPU time of the longest such re-solve so far."""
@@ -206,7 +197,7 @@ class ContactHold:
                 try:
                     v_new = solve(config)
                 except SolverError:
-                    break  # keep the last solution (the trust region of _hold_contacts takes over)
+                    break  # keep the last solution (the trust region takes over)
                 self.contact_corrections += 1
                 new_worst, new_drifts, _ = self._contact_drifts(config, v_new, dt)
                 if new_worst >= worst:
@@ -222,12 +213,17 @@ class ContactHold:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list,
-                       safe: bool = False) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring; ``safe``:
-        :meth:`_held_command`); rank-deficient contact rows projected first (:meth:`_project_contact_rhs`: else their
-        disagreeing corrections ask a large v in the nearly singular direction); each region's solution corrected."""
+    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
+                      held: bool = False) -> TickResult:
+        """v with its contacts held (module docstring): its second-order correction (when on; not when ``held``: J_c v
+        = 0 asked), then, while it drifts past sole_drift_tolerance, trust regions (constructor docstring), each
+        region's solution corrected, the least drifting kept; rank-deficient contact rows projected first
+        (:meth:`_project_contact_rhs`: else their disagreeing corrections ask a large v in the nearly singular
+        direction). ``safe``: the re-solves are the safe command's QP's (``_solve_constraints_only``, bounded by the
+        tick's count), else the tick's QP's."""
         solve = self._solve_constraints_only if safe else self._solve_assembled
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v, safe)
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
