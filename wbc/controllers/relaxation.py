@@ -26,16 +26,13 @@ def outside_limits(config: Configuration, box: list, lb: np.ndarray, ub: np.ndar
     """(indices into v of the joints below their lower position limit whose box asks a return (lb > 0), the same
     above the upper limit (ub < 0)), of the :class:`JointPositionLimit` objects in ``box`` at ``config``, against the
     assembled box bounds lb, ub (nv,)."""
-    entries = []
+    low, high = [np.zeros(0, int)], [np.zeros(0, int)]
     for c in box:
         if isinstance(c, JointPositionLimit):
-            q = config.q[c.idx_q]
-            idx = np.asarray(c.indices)
-            entries.append(idx[(q < c.q_min) & (lb[idx] > 0)])
-            entries.append(idx[(q > c.q_max) & (ub[idx] < 0)])
-    if not entries:
-        return np.zeros(0, int), np.zeros(0, int)
-    return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+            q, idx = config.q[c.idx_q], np.asarray(c.indices)
+            low.append(idx[(q < c.q_min) & (lb[idx] > 0)])
+            high.append(idx[(q > c.q_max) & (ub[idx] < 0)])
+    return np.concatenate(low), np.concatenate(high)
 
 
 class Relaxation:
