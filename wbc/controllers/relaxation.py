@@ -71,9 +71,11 @@ class Relaxation:
             raise SolverError(f"{first_failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
         self._return_bounds = (low, high, self._lb[low].copy(), self._ub[high].copy())
         with self._unconfirmed() as backends:
-            v = self._solve_returning(config, 0.0)  # the feasible sets are nested: none if α = 0 has none
+            self._lb[low] = self._ub[high] = 0.0  # α = 0: the feasible sets are nested, none if it has none
+            v = self._try_solve(config)
             if v is None and self._contact_rows.size and budget.fits(budget.resolve_cost):
-                v = self._solve_returning(config, 0.0, held=True)
+                self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
+                v = self._try_solve(config)
                 held = v is not None
             if v is None:
                 raise SolverError(f"{first_failure}; no solution either with the joints outside their limits held "
