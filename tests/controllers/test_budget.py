@@ -79,19 +79,20 @@ def test_cascade_fits_scales_the_weighted_ticks_count_by_the_levels():
     assert not b.cascade_fits(levels=2, share=1.0)  # 3 × 3 = 9 > 8
 
 
-def test_cascade_may_start_counts_its_least_work_beside_the_work_done_and_the_reserve():
-    """A cascade of 2 levels at LEVEL_WORK 0.5 counts at least 2 × 1.5 = 3 solves per run; it may start while the
-    runs end within 1.75 × 8 = 14 with the weighted form's reserve (0.75 × 8 = 6) counted as done."""
+def test_a_stage_of_given_work_counts_it_beside_the_work_done_and_the_reserve():
+    """A cascade's runs of 2 levels at LEVEL_WORK 0.5 count at least 2 × 1.5 = 3 solves each (``_plan_levels``); they
+    may start as a 'stage' while they end within 1.75 × 8 = 14 with the weighted form's reserve (0.75 × 8 = 6) counted
+    as done."""
     b = _budget()
     b.work.reserve = 6.0
-    assert b.cascade_may_start(2, 0.5, runs=2)  # a steady tick: 0 + 6 + 2 × 3 = 12 ≤ 14
+    assert b.may_start("stage", work=2 * 2 * 1.5)  # a steady tick: 0 + 6 + 2 × 3 = 12 ≤ 14
     b.work.add(4)  # a new layout's LAYOUT_WORK
-    assert not b.cascade_may_start(2, 0.5, runs=2)  # 4 + 6 + 6 = 16 > 14: its contact correction cannot fit
-    assert b.cascade_may_start(2, 0.5, runs=1)  # without a correction: 4 + 6 + 3 = 13 ≤ 14
-    assert not b.cascade_may_start(3, 0.5, runs=1)  # 4 + 6 + 4.5 = 14.5 > 14
+    assert not b.may_start("stage", work=2 * 2 * 1.5)  # 4 + 6 + 6 = 16 > 14: its contact correction cannot fit
+    assert b.may_start("stage", work=2 * 1.5)  # without a correction: 4 + 6 + 3 = 13 ≤ 14
+    assert not b.may_start("stage", work=3 * 1.5)  # 4 + 6 + 4.5 = 14.5 > 14
     b.start(math.inf, 2.5e-4, clock_weight=1.4)
     b.work.add(1e6)
-    assert b.cascade_may_start(50, 0.5, runs=2)  # no cap
+    assert b.may_start("stage", work=2 * 50 * 1.5)  # no cap
 
 
 def test_the_controller_shares_its_budget_work_with_its_backend(robots):

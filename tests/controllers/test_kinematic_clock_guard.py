@@ -16,7 +16,7 @@ def test_kinematic_clock_guard_cuts_the_stages_of_a_tick_by_its_cpu_time(robots)
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget of 1 s (4000 counted solves:
     never reached). Without the clock guard the tick solves every level (path 'levels'). With it, and the CPU
     time weighted so that any time at all exceeds the budget (``CLOCK_WEIGHT`` = 1e12), the cascade is not started
-    (its least work does not fit beside the time already spent, ``TickBudget.cascade_may_start``; before that rule
+    (its least work does not fit beside the time already spent, ``_plan_levels``; before that rule
     it stopped after its first level) nor any contact correction, and the weighted form of the levels answers (one
     QP; its command checked against quadprog in tests/controllers/test_kinematic_weighted_levels.py): ok,
     'levels+budget+weighted', over_budget. Oracles: the soles move ≤ 0.05 mm over the tick by forward kinematics; the

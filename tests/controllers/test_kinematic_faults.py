@@ -329,7 +329,7 @@ def test_failed_tick_past_its_budget_skips_confirmation_and_diagnosis(robots, mo
 
 def test_ok_tick_past_its_budget_answers_with_the_weighted_levels(robots):
     """Strict levels (a hand target at level 0, the posture at level 1) with a budget of 1e-9 s (a cap of 0
-    counted solves): the cascade cannot fit (``TickBudget.cascade_may_start``) and is not started; the tick answers
+    counted solves): the cascade cannot fit (``_plan_levels``) and is not started; the tick answers
     with the weighted form of its levels (one QP; its command checked against quadprog in
     tests/controllers/test_kinematic_weighted_levels.py), ok, with path 'levels+budget+weighted', over_budget and the
     skipped cascade named. Oracles: the command differs from
@@ -504,7 +504,7 @@ def test_tick_answer_does_not_depend_on_the_clock(robots, monkeypatch):
     (strict levels with a hand target and a posture level, Talos standing, 2 ms) give bitwise the same commands, paths
     and budget flags whether the CPU clock of the modules runs normally or jumps 1 s at every read. Oracle: the run
     itself with the real clock (a clock-driven budget cuts the cascade under the racing clock: levels+budget). The
-    first tick (its new layout counted: the cascade and its correction cannot fit, ``TickBudget.cascade_may_start``)
+    first tick (its new layout counted: the cascade and its correction cannot fit, ``_plan_levels``)
     is paid at an unlimited budget, so that the three ticks compared at the 2 ms budget run the cascade."""
     import wbc.controllers.kinematic as kinematic
     import wbc.solvers.base as base
@@ -854,7 +854,7 @@ def test_a_first_strict_tick_past_its_count_retries_with_the_weighted_form(robot
     """Kinematic fuzz seed 550000, episode 93 of the fuzz's run with ``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``
     (humanoid15, a reachable hand target, strict levels, dt = 2 ms, four leg joints 7–36 mrad past their limits, the
     fuzz's budget of 8 counted solves). Tick 0 counts its new layout (``LAYOUT_WORK``): its cascade and contact
-    correction cannot fit beside it and the weighted reserve (``TickBudget.cascade_may_start``), so the tick starts on
+    correction cannot fit beside it and the weighted reserve (``_plan_levels``), so the tick starts on
     the weighted form of its levels; that QP fails (no return rate of those joints is feasible) and its retries stay
     on the weighted form (one QP each; before that rule the cascade ran first, failed after spending the count, and
     its retries were cut to the weighted form, 10.5 counted solves; fuzz seed 100014 episode 176 tick 39 before the
@@ -937,7 +937,7 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
     its size); finite; within the model's joint velocity limits; no joint leaves its position range (the model's
     limits); each stance sole ends within sole_drift_tolerance of where its contact row sends it (Pinocchio's forward
     kinematics on its own Data). Tick 0 is solved at an unlimited budget: at the fuzz's, its cascade and contact
-    correction no longer fit beside the new layout's work (``TickBudget.cascade_may_start``) and the episode runs on
+    correction no longer fit beside the new layout's work (``_plan_levels``) and the episode runs on
     the weighted form from tick 0 (``WEIGHTED_TICKS``); unlimited, tick 0 runs the cascade as the fuzz's run did
     ('levels', its budget not reached either way), and ticks 1–7 at the fuzz's budget replay its route."""
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 550001, 281, dts=(0.002, 0.005, 0.01, 0.02),

@@ -156,8 +156,8 @@ def _kkt_gap(H, g, A, b, lb, ub, x, active_tol: float = 1e-9) -> float:
 def test_the_weighted_form_tries_the_kernel_once_per_shape_in_a_tick(robots, monkeypatch):
     """Fuzz seed 550004 episode 366 tick 0 (``--dts 0.002,0.005,0.01,0.02 --past-limits 0.2``; Talos, strict levels,
     dt 2 ms): its weighted form answers, with a contact correction whose re-solves have the same shape (the cascade is
-    not started: beside the new layout's work it and its correction cannot fit the count, ``TickBudget.
-    cascade_may_start``; it used to run first, 3 counted solves, and be cut). The compiled kernel gave up on the first
+    not started: beside the new layout's work it and its correction cannot fit the count, ``_plan_levels``;
+    it used to run first, 3 counted solves, and be cut). The compiled kernel gave up on the first
     of the weighted QPs and was tried again, uncounted, on each re-solve (three give-ups, a third of the tick's CPU
     time). Now a give-up sends the tick's later problems of that shape to DAQP at once: one kernel attempt per shape,
     the tick's counted solves 10 (13 with the cascade first), each solution a KKT point (closed form) and the soles

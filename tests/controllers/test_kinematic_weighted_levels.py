@@ -88,7 +88,7 @@ def test_cut_cascade_answers_with_its_weighted_form_and_then_one_solve_per_tick(
 
 def test_count_cut_cascade_answers_with_its_weighted_form_without_the_clock_guard(robots):
     """Guard off, a budget of 1e-9 s (0 counted solves): the cascade cannot fit the count and is not started
-    (``TickBudget.cascade_may_start``; before that rule the count cut it after level 0) and the tick answers with the
+    (``_plan_levels``; before that rule the count cut it after level 0) and the tick answers with the
     weighted form of its levels, 'levels+budget+weighted' (quadprog on the QP written out here, to 1e-6 m/s; the cut
     cascade's level-0 command was 0.1+ away); a second controller fed the same inputs answers bitwise the same (a
     count, no clock); the next tick is 'levels+weighted'."""
@@ -141,7 +141,7 @@ def test_count_cut_cascade_keeps_the_soles_and_returns_to_the_cascade_by_count(r
 
 
 def test_a_cascade_that_cannot_fit_beside_a_new_layout_starts_on_its_weighted_form(robots, monkeypatch):
-    """The budget's rule for a tick's first solve (``TickBudget.cascade_may_start``), at the default 2 ms budget (a
+    """The budget's rule for a tick's first solve (``_plan_levels``), at the default 2 ms budget (a
     cap of 8 counted solves, the stages within 1.75 × 8 = 14, the weighted form's reserve 0.75 × 8 = 6, 2 levels):
 
     * a fresh controller's first tick counts its new layout (``LAYOUT_WORK`` = 4): its cascade and one contact

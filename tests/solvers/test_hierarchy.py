@@ -329,7 +329,7 @@ def test_far_target_level_solved_in_one_call_per_cascade_within_the_tick_budget(
     """G1 standing on both soles, CoM on level 0, a hand target 1e6 m away (gain 1e4: |g| ~ 1e11 on level 1) and
     the posture on level 1 — the kinematic fuzz's episode whose level-1 DAQP calls cycled unscaled. After one tick
     at an unlimited budget (the new layout's: at the default budget its work leaves no room for the cascade and its
-    contact correction, ``TickBudget.cascade_may_start``, and that tick would answer with the weighted form of the
+    contact correction, ``_plan_levels``, and that tick would answer with the weighted form of the
     levels), with the default budget (the tick's dt, counted in solves) every tick of a 12-tick closed loop is ok,
     the first with every level of its cascade solved (no level cut; its contact correction may stop at the cascade's
     share of the budget, ``KinematicController.WEIGHTED_RESERVE``, after which that tick is answered by the weighted

@@ -1,15 +1,7 @@
-"""The tick budget of a controller (:class:`TickBudget`): one object that owns the tick's counted work, its clock
-guard and the stage factors, and answers whether a stage may start.
-
-A tick of budget B seconds (CPU time; default the tick's dt) may do cap = ⌊B / solve_cost⌋ QP solves, counted by
-the :class:`wbc.solvers.base.TickWork` it shares with the controller's backends (a count, not a clock: the same
-inputs give the same answers). With the clock guard on, one budget of CPU time also counts as clock_weight × cap
-solves, so every limit on the count also holds on the clock, and a stage given its ``cost`` (its CPU time as timed
-in this tick) starts only when it ends by ``stage_deadline`` budgets (:meth:`TickBudget.fits`); the first solve's
-iteration cap is the CPU time left until one budget over the CPU time per iteration of the recent first solves
-(:meth:`TickBudget.iteration_cap`). The controller owns the numbers (its class constants, read at each
-:meth:`TickBudget.start`); the decisions are these methods'. The same object serves a controller of either level.
-"""
+"""The tick budget of a controller (:class:`TickBudget`): the tick's counted work (``TickWork``, shared with the
+controller's backends: a count, not a clock), its clock guard and stage factors, and whether a stage may start.
+The controller owns the numbers (its class constants, read at each :meth:`TickBudget.start`); what they mean:
+``docs/kinematic-controller.md``, "tick budget"."""
 
 from __future__ import annotations
 
@@ -30,24 +22,17 @@ class TickBudget:
     """Counted work, clock guard and stage factors of one controller's ticks (module docstring).
 
     Attributes:
-        work: the tick's :class:`~wbc.solvers.base.TickWork` (shared with the controller's backends).
-        clock_guard: the tick's CPU time also counts as work (set by the controller).
-        seconds: the current tick's budget (s of CPU time; NaN before the first tick).
-        stage_factor: a solved tick starts no stage past stage_factor × cap counted solves.
-        stage_deadline: with the clock guard, a timed stage ends by stage_deadline budgets of CPU time.
-        first_work, resolve_work, level_work: counted solves of the tick's first solve of its QP, of its largest
-            re-solve and of its largest strict level so far; ``resolves``: solves of its QP so far (from the start
-            of the form that answers it: a cut cascade's weighted form restarts them).
-        resolve_cost, level_cost, check_cost: CPU time (s) of the tick's longest re-solve, strict level and check
-            of a held safe command so far (clock guard).
-        safe_cost: CPU time (s) of the longest solve of the safe command in this tick, else the last tick's;
-            ``safe_fresh``: it was timed in this tick; ``safe_stage_cost``: the last 'constraints_only' stage.
-        level_mark, level_count: CPU time and counted solves of the tick at the last level boundary of a cascade.
-        iteration_cost: CPU time (s) per iteration of the first solve (clock guard; :meth:`note_first_solve`).
+        work: the tick's :class:`~wbc.solvers.base.TickWork`; ``seconds``: the tick's budget (s of CPU time).
+        stage_factor: a solved tick starts no stage past stage_factor × cap counted solves; ``stage_deadline``:
+            with the clock guard, a timed stage ends by stage_deadline budgets of CPU time.
+        first_work, resolve_work, level_work: counted solves of the tick's first solve, largest re-solve and largest
+            strict level so far; ``resolves``: solves of its QP so far (restarted by a cut cascade's weighted form).
+        resolve_cost, level_cost, check_cost, safe_cost, safe_stage_cost: CPU time (s, clock guard) of the tick's
+            longest re-solve, strict level, check of a held safe command, safe command's solve (the last tick's
+            until ``safe_fresh``) and last 'constraints_only' stage; ``iteration_cost``: of a first-solve iteration.
 
     Args:
-        timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`, the calling thread's), read through
-            ``work.timer`` (a test injects a fake one).
+        timer: the CPU clock (s; default :func:`wbc.solvers.base.cpu_time`), read through ``work.timer``.
     """
 
     def __init__(self, timer=None) -> None:
@@ -122,13 +107,6 @@ class TickBudget:
             self.level_mark = now
             return late or not self.fits(self.level_cost)
         return late
-
-    def cascade_may_start(self, levels: int, level_work: float, runs: int = 1) -> bool:
-        """May a strict cascade of ``levels`` levels start as the tick's first solve: ``runs`` cascades (its solve and
-        the re-solves the tick plans after it, e.g. one contact correction) at their least counted work, levels ×
-        (1 + ``level_work``) each (one QP solve per level and the work around it), end within stage_factor caps
-        beside the work already counted (a new layout's, the clock's) and the reserve (``TickWork.spent``)."""
-        return not self.work.spent(self.stage_factor, runs * levels * (1.0 + level_work))
 
     def cascade_fits(self, levels: int, share: float) -> bool:
         """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times levels + 1

@@ -5,7 +5,7 @@ q⁺ = pin.integrate(q, v dt); when one drifts from where its row sends it by mo
 the contact rows' right-hand sides are corrected by the measured drift and the tick is solved again (a Newton step
 on e⁺(v) = (1 − K dt) e, ≤ 3 iterations); dependent contact rows get right-hand sides projected onto the range of
 J_c (least squares). A tick whose drift still exceeds ``sole_drift_tolerance`` is solved inside trust regions
-|v_i| ≤ ρ (``_hold_contacts``), else it fails with :class:`DriftFailure`."""
+|v_i| ≤ ρ (``_held_command``), else it fails with :class:`DriftFailure`."""
 
 from __future__ import annotations
 
@@ -137,36 +137,31 @@ class ContactHold:
         return 0.0 if tol is None or turn is None else tol / turn
 
     def _consistent_contact_rhs(self) -> bool:
-        """After a failed solve, the contact rows' right-hand sides b_c replaced by U_r U_rᵀ b_c, their projection onto
-        the range of J_c (:meth:`ContactRange.basis`): rank-deficient contact rows (two flat 5-DoF legs both fixing
-        the base yaw) whose drift corrections disagree in a dependent direction, which no v meets, are averaged
-        there; True when b changed."""
-        rows = self._contact_rows
-        Ur = self.contact_range.basis(self._A[rows], self.rank_rtol)
-        if Ur.shape[1] == rows.size:
+        """After a failed solve, the contact rows' right-hand sides made consistent (:meth:`_project_contact_rhs`: e.g.
+        two flat 5-DoF legs both fixing the base yaw ask disagreeing corrections that no v meets); True when b changed."""
+        basis = self._contact_range_basis(ranked=False)
+        if basis is None:
             return False
-        projected = Ur @ (Ur.T @ self._b[rows])
-        changed = not np.array_equal(projected, self._b[rows])
-        self._b[rows] = projected
+        b0 = self._b[self._contact_rows]
+        self._project_contact_rhs(basis)
         self._eq_rows = None  # recompute the independent rows for the retry
-        return changed
+        return not np.array_equal(b0, self._b[self._contact_rows])
 
-    def _contact_range_basis(self) -> np.ndarray | None:
-        """:meth:`ContactRange.basis` of the contact rows J_c when they are rank deficient, else None."""
+    def _contact_range_basis(self, ranked: bool = True) -> np.ndarray | None:
+        """:meth:`ContactRange.basis` of the contact rows J_c when they are rank deficient, else None (``ranked``: also
+        None when the tick's rank check kept every equality row)."""
         rows = self._contact_rows
-        if self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
-            return None  # every equality row independent (rank computed on this constraint set)
+        if ranked and self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+            return None
         basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
         return None if basis.shape[1] == rows.size else basis
 
-    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
-                      held: bool = False) -> TickResult:
-        """v's second-order contact correction (when on, and not ``held``: J_c v = 0 asked) then its trust region
-        (:meth:`_hold_contacts`); ``safe``: their re-solves are the safe command's QP's (``_solve_constraints_only``,
-        bounded by the tick's count), else the tick's QP's."""
-        if self.contact_correction > 0 and self._contacts and not held:
-            v = self._correct_contacts(config, dt, v, safe)
-        return self._hold_contacts(config, dt, v, relaxed, safe)
+    def _project_contact_rhs(self, basis: np.ndarray | None) -> None:
+        """b_c ← U_r U_rᵀ b_c: the contact rows' right-hand sides projected onto the range of J_c (``basis`` U_r; None:
+        full rank, unchanged), so that dependent rows' corrections agree (least squares)."""
+        if basis is not None:
+            rows = self._contact_rows
+            self._b[rows] = basis @ (basis.T @ self._b[rows])
 
     def _may_resolve(self, safe: bool, stage: str) -> bool:
         """May a re-solve start: the safe command's (``safe``) as a 'retry', else as a 'stage' (its cut recorded as
@@ -198,13 +193,11 @@ class ContactHold:
                     break  # the best command is kept
                 for (r0, r1), d in zip(rows, drifts):
                     self._b[r0:r1] -= d / dt
-                if range_basis is not None:  # dependent contact rows: as _consistent_contact_rhs
-                    cr = self._contact_rows
-                    self._b[cr] = range_basis @ (range_basis.T @ self._b[cr])
+                self._project_contact_rhs(range_basis)
                 try:
                     v_new = solve(config)
                 except SolverError:
-                    break  # keep the last solution (the trust region of _hold_contacts takes over)
+                    break  # keep the last solution (the trust region takes over)
                 self.contact_corrections += 1
                 new_worst, new_drifts, _ = self._contact_drifts(config, v_new, dt)
                 if new_worst >= worst:
@@ -220,13 +213,17 @@ class ContactHold:
             np.copyto(self._b, b0)
         return v
 
-    def _hold_contacts(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list,
-                       safe: bool = False) -> TickResult:
-        """Trust region on v until the contact frames drift ≤ sole_drift_tolerance (constructor docstring; ``safe``:
-        :meth:`_held_command`). Rank-deficient contact rows
-        get consistent right-hand sides first (as :meth:`_consistent_contact_rhs`: else their disagreeing corrections
-        ask a large v in the nearly singular direction); each region's solution is corrected before it is measured."""
+    def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
+                      held: bool = False) -> TickResult:
+        """v with its contacts held (module docstring): its second-order correction (when on; not when ``held``: J_c v
+        = 0 asked), then, while it drifts past sole_drift_tolerance, trust regions (constructor docstring), each
+        region's solution corrected, the least drifting kept; rank-deficient contact rows projected first
+        (:meth:`_project_contact_rhs`: else their disagreeing corrections ask a large v in the nearly singular
+        direction). ``safe``: the re-solves are the safe command's QP's (``_solve_constraints_only``, bounded by the
+        tick's count), else the tick's QP's."""
         solve = self._solve_constraints_only if safe else self._solve_assembled
+        if self.contact_correction > 0 and self._contacts and not held:
+            v = self._correct_contacts(config, dt, v, safe)
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
@@ -237,9 +234,7 @@ class ContactHold:
         n_radii = 8 + (basis is not None)
         radius, last = rho, drift  # the last region's radius and the drift of its solution
         try:
-            if basis is not None:
-                cr = self._contact_rows
-                self._b[cr] = basis @ (basis.T @ self._b[cr])
+            self._project_contact_rhs(basis)
             for k in range(n_radii):
                 if not self._may_resolve(safe, f"trust region after {k} of at most {n_radii} radii"):
                     break  # the least drifting command is kept

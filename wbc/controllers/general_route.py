@@ -92,16 +92,15 @@ class GeneralRoute:
         return backend
 
     def _plan_levels(self) -> None:
-        """Before the tick's first solve: strict levels whose cascade cannot fit the tick's count — it and its contact
-        correction at their least counted work (``TickBudget.cascade_may_start``) beside the work already counted
-        (a new layout's ``LAYOUT_WORK`` on a controller's first tick) and the weighted form's reserve — are answered
-        by their weighted form (one QP) from the start, as a cascade the budget cut would be after its levels; the
-        next ticks follow the rule of a cut cascade (``WEIGHTED_TICKS``, ``TickBudget.cascade_fits``)."""
+        """Before the tick's first solve: strict levels whose cascade and contact correction cannot fit the tick's
+        count at their least work, levels × (1 + ``LEVEL_WORK``) each, as a 'stage' (``TickBudget.may_start``: beside
+        the work counted, e.g. a new layout's, and the reserve) are answered by their weighted form from the start
+        (``docs/kinematic-controller.md``)."""
         if not self._level_order or self._weighted_tick:
             return
         runs = 2 if self.contact_correction > 0 and self._contacts else 1
         least = runs * len(self._level_order) * (1.0 + self.LEVEL_WORK)
-        if self.tick_budget.cascade_may_start(len(self._level_order), self.LEVEL_WORK, runs):
+        if self.tick_budget.may_start("stage", work=least):
             return
         self._work.reserve = 0.0  # the weighted form's: all of it
         self._weighted_tick, self._weighted_qp = True, None

@@ -86,16 +86,13 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     clock_guard = Flag("The tick's CPU time also counts as work (constructor docstring).")
 
     # the numbers' roles: docs/kinematic-controller.md (tick budget, clock guard, safe command)
-    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active-set, one core;
-    #: the median per counted solve over the kinematic fuzz): a budget is ⌊budget / SOLVE_COST⌋ counted solves
+    #: nominal CPU time (s) of one QP solve of a humanoid tick (nv ≤ 38, ≤ 120 rows, dense active set, one core)
     SOLVE_COST = 2.5e-4
-    #: a solved tick starts no optional stage (strict level, contact correction, trust region) once STAGE_FACTOR ×
-    #: its budget is spent: the stage in progress, output guard and drift checks end within twice the budget
+    #: a solved tick starts no optional stage once STAGE_FACTOR × its budget is spent
     STAGE_FACTOR = 1.75
     #: with ``clock_guard``, one budget of CPU time counts as CLOCK_WEIGHT × ⌊budget / SOLVE_COST⌋ solves
     CLOCK_WEIGHT = 1.4
-    #: with ``clock_guard``: a stage after the first solve starts only when it ends, at the CPU time of the longest
-    #: such stage of this tick, by STAGE_DEADLINE × the budget
+    #: with ``clock_guard``: a timed stage after the first solve must end by STAGE_DEADLINE × the budget
     STAGE_DEADLINE = 1.5
     #: with ``clock_guard``: the deadline of the least-squares re-solve of dependent contact rows (× the budget)
     RESCUE_DEADLINE = 1.7
@@ -105,12 +102,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     WEIGHTED_LEVEL_RATIO = 100.0
     #: budgets (counted solves) a tick of the strict cascade keeps for the weighted form (``TickWork.reserve``)
     WEIGHTED_RESERVE = 0.75
-    #: counted solves per level of the strict cascade for the work around its QP (``solve_lexicographic``)
+    #: counted solves per level of the strict cascade for the work around its QP
     LEVEL_WORK = 0.5
     #: counted solves expected of a contact hold's first re-solve of one QP (its later ones: the largest so far)
     FIRST_RESOLVE_WORK = 1.0
-    #: m: a safe command is taken only when it leaves each contact frame within this of where the run of failed
-    #: ticks began (or no farther than it is)
+    #: m: a safe command keeps each contact frame within this of where the run of failed ticks began
     SAFE_COMMAND_RADIUS = 5e-4
     #: counted solves per check of a 'contacts_held' command (forward kinematics, drift, radius)
     CHECK_WORK = 0.25

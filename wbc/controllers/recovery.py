@@ -88,11 +88,8 @@ class Recovery:
                     for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
                         c.placement = anchor
                         self._b[r0:r1] = c.compute(config, dt)[1]
+                    self._project_contact_rhs(self._contact_range_basis(ranked=False))
                     anchored = self._b[self._contact_rows].copy()
-                    # dependent contact rows' corrections made consistent (as _consistent_contact_rhs)
-                    Ur = self.contact_range.basis(self._A[self._contact_rows], self.rank_rtol)
-                    if Ur.shape[1] < anchored.size:
-                        anchored = Ur @ (Ur.T @ anchored)
                     tried = []  # (β, what became of its command) for the message
                     for beta in scales:
                         if not budget.fits(budget.safe_estimate() + budget.check_cost):

@@ -1,11 +1,10 @@
-"""The relaxation ladder of the kinematic controller, tried before a tick is declared failed.
-
-Relaxable constraints (joint acceleration limits) are left out of a tick that is infeasible with them
-(``_relax``). Then, when joints are outside their position limits, their return rate is scaled by α: α = 0 first,
-then 1/1000, 1/100, 1/10, 1/2 while they solve and the budget lasts (``_relaxation_ladder``, ``_slower_return``);
-when even α = 0 has no solution the contacts' drift corrections rank below it (J_c v = 0). The strict levels'
-weighted form (level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) answers a cascade the budget cut
-(``_weighted_answer``)."""
+"""The relaxation ladder of the kinematic controller, tried in turn before a tick is declared failed: dependent contact
+rows' right-hand sides made consistent (least squares); the relaxable constraints (joint acceleration limits) left out
+(``_relax``); the return rate of joints outside their position limits scaled by α: α = 0 first (the feasible sets are
+nested: when it has no solution none has, and then J_c v = 0 is asked), then 1/1000, 1/100, 1/10, 1/2 while they solve
+and the budget lasts, the largest kept; when its command's contacts cannot be held (the sole-drift bound ranks above the
+return rate), the smaller α down to 0, then 0 with J_c v = 0 (``_slower_return``). The strict levels' weighted form
+(level k of p scaled by ``WEIGHTED_LEVEL_RATIO`` ** (p − k)) answers a cascade the budget cut (``_weighted_answer``)."""
 
 from __future__ import annotations
 
@@ -19,8 +18,7 @@ from wbc.exceptions import SolverError
 from wbc.tick import TickResult
 
 
-#: scales α of the return rate of joints outside their limits tried in turn when the tick is infeasible
-#: (``Relaxation._relaxation_ladder``)
+#: scales α of the return rate of joints outside their limits (module docstring)
 _RETURN_RATE_SCALES = (0.5, 0.1, 0.01, 0.001, 0.0)
 
 
@@ -28,16 +26,13 @@ def outside_limits(config: Configuration, box: list, lb: np.ndarray, ub: np.ndar
     """(indices into v of the joints below their lower position limit whose box asks a return (lb > 0), the same
     above the upper limit (ub < 0)), of the :class:`JointPositionLimit` objects in ``box`` at ``config``, against the
     assembled box bounds lb, ub (nv,)."""
-    entries = []
+    low, high = [np.zeros(0, int)], [np.zeros(0, int)]
     for c in box:
         if isinstance(c, JointPositionLimit):
-            q = config.q[c.idx_q]
-            idx = np.asarray(c.indices)
-            entries.append(idx[(q < c.q_min) & (lb[idx] > 0)])
-            entries.append(idx[(q > c.q_max) & (ub[idx] < 0)])
-    if not entries:
-        return np.zeros(0, int), np.zeros(0, int)
-    return np.concatenate(entries[0::2]), np.concatenate(entries[1::2])
+            q, idx = config.q[c.idx_q], np.asarray(c.indices)
+            low.append(idx[(q < c.q_min) & (lb[idx] > 0)])
+            high.append(idx[(q > c.q_max) & (ub[idx] < 0)])
+    return np.concatenate(low), np.concatenate(high)
 
 
 class Relaxation:
@@ -45,12 +40,9 @@ class Relaxation:
 
     def _relaxation_ladder(self, config: Configuration, dt: float,
                            first_failure: SolverError) -> tuple[np.ndarray, list[str], float | None, bool]:
-        """The retries of a tick whose QP failed (``first_failure``), in turn (module docstring): dependent contact
-        rows made consistent, the relaxable constraints left out, the return rate of the joints outside their limits
-        scaled by α: α = 0 first (the feasible sets are nested: when it has no solution no α has; then also
-        J_c v = 0), then from 1/1000 up while they solve and the tick's count lasts, the largest kept (trial solves
-        unconfirmed, no cold retry). Returns (v, what was relaxed, α or None, held: J_c v = 0 asked), the buffers
-        holding v's problem; raises SolverError when no retry solved (or the clock guard left none the time)."""
+        """The retries of a failed tick in turn (module docstring; trial solves unconfirmed, no cold retry): (v, what
+        was relaxed, α or None, held: J_c v = 0 asked), the buffers holding v's problem; raises SolverError when none
+        solved (or the clock guard left none the time)."""
         budget, v, relaxed, held = self.tick_budget, None, [], False
         self._work.reserve = 0.0  # the relaxations count as before
         # clock guard: the least-squares re-solve below (does the hard set have a solution?) by RESCUE_DEADLINE
@@ -77,10 +69,9 @@ class Relaxation:
             raise first_failure
         if not budget.fits(budget.resolve_cost):
             raise SolverError(f"{first_failure}; return-rate relaxation skipped: tick budget spent (clock guard)")
-        lb0, ub0 = self._lb[low].copy(), self._ub[high].copy()
+        self._return_bounds = (low, high, self._lb[low].copy(), self._ub[high].copy())
         with self._unconfirmed() as backends:
-            self._lb[low] = 0.0
-            self._ub[high] = 0.0
+            self._lb[low] = self._ub[high] = 0.0  # α = 0: the feasible sets are nested, none if it has none
             v = self._try_solve(config)
             if v is None and self._contact_rows.size and budget.fits(budget.resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
@@ -96,25 +87,18 @@ class Relaxation:
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
                 if not budget.may_start("retry", budget.resolve_cost):
                     break
-                self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
-                v_alpha = self._try_solve(config)
+                v_alpha = self._solve_returning(config, alpha)
                 if v_alpha is None:
                     break  # (feasible sets nested: no larger α has a solution)
                 v, return_rate = v_alpha, alpha
-            self._lb[low], self._ub[high] = return_rate * lb0, return_rate * ub0  # the returned command's problem
-            self._return_bounds = (low, high, lb0, ub0)
-        relaxed.append(f"joint_position_limit return rate × {return_rate:g}")
-        if held:
-            relaxed.append("contact drift correction × 0 (J_c v = 0)")
-        return v, relaxed, return_rate, held
+            self._solve_returning(None, return_rate)  # the returned command's problem
+        return v, self._returned(relaxed, return_rate, held), return_rate, held
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
                        result: TickResult) -> tuple[TickResult, float]:
-        """After the return-rate ladder kept α but no trust region held the contacts: the smaller scales down to 0,
-        each solved and held, while the tick's stages last (the sole-drift bound of an ok tick ranks above the return
-        rate); last α = 0 with J_c v = 0 (its drift from where the full correction sends a frame: K dt e plus second
-        order in v dt). Returns (the first ok result, its α), else (``result``, ``alpha``), the buffers α's again."""
-        low, high, lb0, ub0 = self._return_bounds
+        """After the return rate α's command failed its contact hold: the smaller scales down to 0, then 0 with
+        J_c v = 0, each solved and held while the tick's stages last (module docstring). Returns (the first ok
+        result, its α), else (``result``, ``alpha``) with the buffers α's again."""
         rows = self._contact_rows
         b0 = self._b[rows].copy()
         steps = [(a, False) for a in _RETURN_RATE_SCALES if a < alpha] + ([(0.0, True)] if rows.size else [])
@@ -123,21 +107,29 @@ class Relaxation:
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
-                self._lb[low], self._ub[high] = a * lb0, a * ub0
-                if held:
-                    self._b[rows] = 0.0
-                v = self._try_solve(config)
-                if v is None:
-                    continue
-                r = self._held_command(config, dt, v, relaxed, held=held)
-                if r.ok:
-                    relaxed[-1] = f"joint_position_limit return rate × {a:g}"
-                    if held:
-                        relaxed.append("contact drift correction × 0 (J_c v = 0)")
+                v = self._solve_returning(config, a, held)
+                r = None if v is None else self._held_command(config, dt, v, relaxed, held=held)
+                if r is not None and r.ok:
+                    r.relaxed = self._returned(relaxed[:-1], a, held)
                     return r, a
             self._b[rows] = b0
-            self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
+            self._solve_returning(None, alpha)
             return result, alpha
+
+    def _solve_returning(self, config: Configuration | None, alpha: float, held: bool = False) -> np.ndarray | None:
+        """The buffers' return rate scaled by α (and J_c v = 0 when ``held``), then their command (``_try_solve``;
+        no solve when ``config`` is None)."""
+        low, high, lb0, ub0 = self._return_bounds
+        self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
+        if held:
+            self._b[self._contact_rows] = 0.0
+        return None if config is None else self._try_solve(config)
+
+    @staticmethod
+    def _returned(relaxed: list, alpha: float, held: bool) -> list[str]:
+        """``relaxed`` and the return rate's relaxation (``TickResult.relaxed``)."""
+        return relaxed + [f"joint_position_limit return rate × {alpha:g}"] + (
+            ["contact drift correction × 0 (J_c v = 0)"] if held else [])
 
     def _try_solve(self, config: Configuration) -> np.ndarray | None:
         """The command of the QP in the buffers (``_solve_assembled``), or None when that raises SolverError."""
