@@ -274,14 +274,10 @@ class QPBackend(ABC):
                                   "no independent solver (tick budget spent: infeasibility not confirmed)")
                 self.work.solves += cost
             try:
-                if name == "proxqp":
-                    backend = _BACKEND_CLASSES["proxqp"](tolerance=self.tolerance, max_iter=200)
-                elif name == "quadprog":
-                    if np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
-                        continue  # quadprog needs H positive definite
-                    backend = _BACKEND_CLASSES["qpsolvers"]("quadprog", tolerance=self.tolerance)
-                else:
-                    backend = _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance)
+                if name == "quadprog" and np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
+                    continue  # quadprog needs H positive definite
+                backend = (_BACKEND_CLASSES["proxqp"](tolerance=self.tolerance, max_iter=200) if name == "proxqp" else
+                           _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance))
                 x = backend.raw_solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None

@@ -148,9 +148,50 @@ class FallbackChain:
             self.relaxed_infeasible_by_check += 1
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
-        if isinstance(self.backend, DaqpBackend):
-            return self._relaxed_daqp(qp)
-        return self._solve_checked(*qp)
+        if not isinstance(self.backend, DaqpBackend):
+            return self._solve_checked(*qp)
+        # a DAQP backend: docs/inverse-dynamics-controller.md, "The relaxed QP"
+        H, g, A, b, C, l, u, lb, ub = qp
+        backend = self.backend
+        backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
+        try:
+            # the attempt's iterations and its DAQP_CALL_WORK within what is left for the relaxed QP
+            left = self._left("RELAXED")
+            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
+                left - DAQP_CALL_WORK, ITERATION_LIMIT))) if math.isfinite(left) else None)
+            if sol is not None:
+                return sol
+            if not backend.budget_capped and self._left("RELAXED") >= MIN_CALL_ITERATIONS:
+                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
+                feasible = self.relaxed_set_feasible
+                if feasible is None and not self._relaxed_check_final:
+                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
+                if feasible is False:
+                    self.relaxed_infeasible_by_check += 1
+                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
+                                      f"onto it): the backend's retries skipped")
+                sol, exc = self._retries(qp, first, "RELAXED")
+                if sol is not None:
+                    return sol
+                if backend.budget_capped or feasible is not True:
+                    raise exc
+                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
+                x, skipped = self._quadprog_within(qp, "RELAXED")
+                if x is None:
+                    raise SolverError(f"{exc}; " + (f"no quadprog solve of the relaxed QP: {skipped}" if skipped else
+                                                    "quadprog found no solution either"))
+                self.relaxed_quadprog_solves += 1
+                return QPSolution(x, "quadprog", "quadprog")
+        except SolverError as exc:
+            if backend.budget_capped:
+                self.budget_cut = True
+                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
+            raise
+        finally:
+            backend.deadline = math.inf
+        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
+        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
+                          f"the relaxed hard-set check and the backend's retries)")
 
     # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain"). Each stage's
     # steps get the DAQP iterations :meth:`_left` answers: counted, what keeps :attr:`tick_work` below its _WORK
@@ -160,7 +201,7 @@ class FallbackChain:
     #: the hard-set checks, the scaled call and the retries
     FAILURE_WORK = 1.0
     FAILURE_END = 1.4
-    #: quadprog runs only when its work (:meth:`_quadprog_work`) fits
+    #: quadprog runs only when its work fits (:meth:`_quadprog_within`)
     QUADPROG_WORK = 1.25
     QUADPROG_END = 1.55
     #: the relaxed QP's calls
@@ -297,51 +338,6 @@ class FallbackChain:
             self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
         # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
         return {"confirm": False} if self._takes_confirm[1] else {}
-
-    def _relaxed_daqp(self, qp: QPData) -> QPSolution:
-        """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
-        SolverError."""
-        H, g, A, b, C, l, u, lb, ub = qp
-        backend = self.backend
-        backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
-        try:
-            # the attempt's iterations and its DAQP_CALL_WORK within what is left for the relaxed QP
-            left = self._left("RELAXED")
-            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
-                left - DAQP_CALL_WORK, ITERATION_LIMIT))) if math.isfinite(left) else None)
-            if sol is not None:
-                return sol
-            if not backend.budget_capped and self._left("RELAXED") >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
-                feasible = self.relaxed_set_feasible
-                if feasible is None and not self._relaxed_check_final:
-                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
-                if feasible is False:
-                    self.relaxed_infeasible_by_check += 1
-                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
-                                      f"onto it): the backend's retries skipped")
-                sol, exc = self._retries(qp, first, "RELAXED")
-                if sol is not None:
-                    return sol
-                if backend.budget_capped or feasible is not True:
-                    raise exc
-                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
-                x, skipped = self._quadprog_within(qp, "RELAXED")
-                if x is None:
-                    raise SolverError(f"{exc}; " + (f"no quadprog solve of the relaxed QP: {skipped}" if skipped else
-                                                    "quadprog found no solution either"))
-                self.relaxed_quadprog_solves += 1
-                return QPSolution(x, "quadprog", "quadprog")
-        except SolverError as exc:
-            if backend.budget_capped:
-                self.budget_cut = True
-                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
-            raise
-        finally:
-            backend.deadline = math.inf
-        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
-        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
-                          f"the relaxed hard-set check and the backend's retries)")
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
