@@ -1,7 +1,7 @@
 """The interface every QP backend implements (:class:`QPBackend`: the QP of :mod:`wbc.solvers.qp_data`, the answer
 checked against every constraint, polished, re-solved independently before a failure stands) and the counted work of
-a tick (:class:`TickWork`). The backends :class:`QPBackend` builds itself (ProxQP, qpsolvers, DAQP) register their
-classes here on import (:func:`register_backend_class`): their modules import this one.
+a tick (:class:`TickWork`). The backends :class:`QPBackend` builds itself (ProxQP, qpsolvers, DAQP) name their role
+in their class statement (``class DaqpBackend(QPBackend, role="daqp")``): their modules import this one.
 """
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from time import thread_time
-from typing import Callable
 
 import numpy as np
 import qpsolvers
@@ -18,7 +17,7 @@ from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers.linalg import scaled_row_violation
 
 __all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "PROX_ITERATIONS_PER_SOLVE", "QPBackend",
-           "TickWork", "register_backend_class"]
+           "TickWork"]
 
 #: stands for an infinite bound where a backend needs a finite number
 INFINITE_BOUND = 1e10
@@ -31,19 +30,8 @@ ITERATIONS_PER_SOLVE = 150
 PROX_ITERATIONS_PER_SOLVE = 75
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 POLISH_RANGE = 1e-3
-#: The backend classes :class:`QPBackend` builds, by role (:func:`register_backend_class`).
+#: The backend classes :class:`QPBackend` builds, by role (``"daqp"``, ``"proxqp"``, ``"qpsolvers"``).
 _BACKEND_CLASSES: dict[str, type] = {}
-
-
-def register_backend_class(role: str) -> Callable[[type], type]:
-    """Class decorator: the decorated :class:`QPBackend` subclass is the one :meth:`QPBackend.confirm` and
-    :meth:`QPBackend.polish` build for ``role`` (``"daqp"``, ``"proxqp"`` or ``"qpsolvers"``)."""
-
-    def register(cls: type) -> type:
-        _BACKEND_CLASSES[role] = cls
-        return cls
-
-    return register
 
 
 def cpu_time() -> float:
@@ -123,6 +111,12 @@ class QPBackend(ABC):
 
     name: str = ""
     tolerance: float = 1e-6
+
+    def __init_subclass__(cls, role: str = "", **kwargs):
+        """``role``: this subclass is the one :meth:`confirm` and :meth:`polish` build for it."""
+        super().__init_subclass__(**kwargs)
+        if role:
+            _BACKEND_CLASSES[role] = cls
 
     @abstractmethod
     def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:

@@ -8,7 +8,7 @@ from time import thread_time
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.solvers.base import PROX_ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
+from wbc.solvers.base import PROX_ITERATIONS_PER_SOLVE, QPBackend
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
            "MEASURED_CALL_ITERATIONS", "MEASURED_COST_DECAY", "MIN_CALL_ITERATIONS", "WORK_LIMIT_FACTOR"]
@@ -37,8 +37,7 @@ DAQP_PRIMAL_TOL = 1e-6
 DUAL_RETRY_PRIMAL_FACTOR = 10.0
 
 
-@register_backend_class("daqp")
-class DaqpBackend(QPBackend):
+class DaqpBackend(QPBackend, role="daqp"):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022): bounds are its simple bounds, equalities sense-5 rows. A failed
     warm-started solve is repeated cold (a fresh workspace, then the one-shot ``daqp.solve``); a workspace call that
