@@ -283,11 +283,6 @@ class FallbackChain:
             calls = max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
         return self._call(qp, "retries", calls, self._deadline(self._factors(stage)[1]))
 
-    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations."""
-        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
-                + DAQP_CALL_WORK)
-
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
         """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
         :meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled`), its DAQP calls capped at ``calls`` (None: no cap) and
@@ -314,11 +309,11 @@ class FallbackChain:
             backend.call_iterations = None
             if deadline is not None:
                 backend.deadline = math.inf
+            proximal = PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
             if step != "retries":
-                self.tick_work += self._call_work(backend, proximal)
+                self.tick_work += backend.last_iterations + proximal + DAQP_CALL_WORK
             elif calls is not None:
-                self.tick_work += (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
-                                   + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
+                self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK) + proximal
 
     @property
     def retry_deadline(self) -> float:
