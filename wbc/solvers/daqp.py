@@ -69,7 +69,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         if self.settings.get("eps_prox", 0.0) > 0.0:
             self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
         self._model = None
-        self._cold_outcome = None
+        self._cold_ran = False
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve attempt (every call it made).
@@ -182,7 +182,7 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
-        self._cold_outcome = None  # (x, model, multipliers) once this call ran the cold path (_solve_cold reuses it)
+        self._cold_ran = False  # this call ran the cold path (_solve_cold does not repeat it)
         if self.warm_start == "dual":
             return self._solve_dual(H, g)
         if self.budget_capped:
@@ -218,8 +218,7 @@ class DaqpBackend(QPBackend, role="daqp"):
                 self._model = None
                 x = self._solve_oneshot(H, g)
                 if x is not None:
-                    self._oneshot_first = True
-                    self._cold_outcome = (x, None, self.last_multipliers)
+                    self._oneshot_first = self._cold_ran = True
                     return x
                 if self.budget_capped:
                     return None
@@ -236,19 +235,18 @@ class DaqpBackend(QPBackend, role="daqp"):
                 self._model = model
                 self._model_limit = limit
                 self.last_multipliers = info["lam"]
-                self._cold_outcome = (x, model, info["lam"])
+                self._cold_ran = True
                 return x
             self._note_exit(exitflag, limit)
         if not self.cold_retry or self.budget_capped:
             return None
-        if tried_oneshot:  # both cold calls ran and failed (deterministic): _solve_cold does not repeat them
-            self._cold_outcome = (None, None, None)
+        self._cold_ran = True
+        if tried_oneshot:  # both cold calls ran and failed
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
         x = self._solve_oneshot(H, g)
         self._oneshot_first = x is not None
-        self._cold_outcome = (x, None, self.last_multipliers)
         return x
 
     def _solve_oneshot(self, H, g):
@@ -260,21 +258,16 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self._dual = None
-        outcome = self._cold_outcome
-        if outcome is not None:
-            # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
-            # then the one-shot solve (dual warm start: the one-shot solve from no dual start, which failed) —
-            # whose answer is deterministic: reused, not computed twice
-            x, model, multipliers = outcome
-            self.last_iterations = 0  # no new solver call
-            if self.warm_start != "dual":
-                self._model, self.last_multipliers = model, multipliers
-        else:
+        x = None
+        if not self._cold_ran:
+            # (else the attempt before, QPBackend.solve's on the same problem, ran the cold path — a fresh workspace,
+            # then the one-shot solve; dual warm start: the one-shot solve from no dual start — and its answer, if
+            # any, failed the check: deterministic, not computed twice)
             self._model = None
             self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
-            return x
+            if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
+                return x
         if self.budget_capped:
             return None  # the tick's work limit stopped this problem's cold solve: no retry
         # the retries below within the tick's counted work left (call_limit)
@@ -335,7 +328,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         self.last_iterations += int(info["iterations"])
         if x is None:
             self._dual = None
-            self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
+            self._cold_ran = True  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual
