@@ -20,7 +20,6 @@ docs/inverse-dynamics-controller.md, "The fallback chain".
 
 from __future__ import annotations
 
-import inspect
 import math
 from time import thread_time
 from typing import Callable
@@ -107,8 +106,6 @@ class FallbackChain:
         self.backend = backend
         self.compiled = compiled
         self.compiled_reason = ""
-        self._takes_confirm: tuple = (None, False)
-        self._confirm_kw  # the backend's signature read here, not inside the first tick
         self.second_opinion_enabled = True  # :meth:`_solve_checked`
         self.daqp_attempt_iterations = ITERATION_LIMIT
         self.tick_work_iterations = math.inf
@@ -328,11 +325,8 @@ class FallbackChain:
 
     @property
     def _confirm_kw(self) -> dict:
-        backend = self.backend
-        if self._takes_confirm[0] is not backend:  # a backend assigned after construction
-            self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
         # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
-        return {"confirm": False} if self._takes_confirm[1] else {}
+        return {"confirm": False} if isinstance(self.backend, QPBackend) else {}
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
