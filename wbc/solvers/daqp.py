@@ -155,21 +155,15 @@ class DaqpBackend(QPBackend, role="daqp"):
             else:
                 self.budget_capped = True
 
-    def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
-        self._layout = (n, n_eq, n_in)
-        self._dual = None
-        self._G = np.empty((n_eq + n_in, n))
-        self._upper = np.empty(n + n_eq + n_in)
-        self._lower = np.empty(n + n_eq + n_in)
-        self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
-        self._sense[n:n + n_eq] = 5
-        self._model = None
-
     def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
         """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
         n, n_eq, n_in = lb.shape[0], A.shape[0], C.shape[0]
-        if self._layout != (n, n_eq, n_in):
-            self._prepare(n, n_eq, n_in)
+        if self._layout != (n, n_eq, n_in):  # buffers of this size; no warm start of another size
+            self._layout, self._dual, self._model = (n, n_eq, n_in), None, None
+            self._G = np.empty((n_eq + n_in, n))
+            self._upper, self._lower = np.empty(n + n_eq + n_in), np.empty(n + n_eq + n_in)
+            self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
+            self._sense[n:n + n_eq] = 5
         G, upper, lower = self._G, self._upper, self._lower
         e = n + n_eq
         upper[:n], lower[:n] = ub, lb  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
@@ -183,10 +177,10 @@ class DaqpBackend(QPBackend, role="daqp"):
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
         self._cold_ran = False  # this call ran the cold path (_solve_cold does not repeat it)
-        if self.warm_start == "dual":
-            return self._solve_dual(H, g)
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
+        if self.warm_start == "dual":
+            return self._solve_dual(H, g)
         tried_oneshot = self._oneshot_first and self.cold_retry
         if tried_oneshot:
             # the last solve's workspace calls failed where the one-shot solve then succeeded (a strict level whose
@@ -318,8 +312,6 @@ class DaqpBackend(QPBackend, role="daqp"):
         return xc
 
     def _solve_dual(self, H, g):
-        if self.budget_capped:
-            return None  # the tick's work limit stopped a call of this solve: no further call
         x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
         if x is None and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
