@@ -1,7 +1,7 @@
 """The interface every QP backend implements (:class:`QPBackend`: the QP of :mod:`wbc.solvers.qp_data`, the answer
 checked against every constraint, polished, re-solved independently before a failure stands) and the counted work of
-a tick (:class:`TickWork`). The backends :class:`QPBackend` builds itself (ProxQP, qpsolvers, DAQP) register their
-classes here on import (:func:`register_backend_class`): their modules import this one.
+a tick (:class:`TickWork`). The backends :class:`QPBackend` builds itself (ProxQP, qpsolvers, DAQP) name their role
+in their class statement (``class DaqpBackend(QPBackend, role="daqp")``): their modules import this one.
 """
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from time import thread_time
-from typing import Callable
 
 import numpy as np
 import qpsolvers
@@ -18,7 +17,7 @@ from wbc.exceptions import InfeasibleProblemError, SolverError
 from wbc.solvers.linalg import scaled_row_violation
 
 __all__ = ["INFINITE_BOUND", "ITERATIONS_PER_SOLVE", "POLISH_RANGE", "PROX_ITERATIONS_PER_SOLVE", "QPBackend",
-           "TickWork", "register_backend_class"]
+           "TickWork"]
 
 #: stands for an infinite bound where a backend needs a finite number
 INFINITE_BOUND = 1e10
@@ -31,19 +30,8 @@ ITERATIONS_PER_SOLVE = 150
 PROX_ITERATIONS_PER_SOLVE = 75
 #: Largest scaled violation of a solver's answer that :meth:`QPBackend.polish` tries to repair.
 POLISH_RANGE = 1e-3
-#: The backend classes :class:`QPBackend` builds, by role (:func:`register_backend_class`).
+#: The backend classes :class:`QPBackend` builds, by role (``"daqp"``, ``"proxqp"``, ``"qpsolvers"``).
 _BACKEND_CLASSES: dict[str, type] = {}
-
-
-def register_backend_class(role: str) -> Callable[[type], type]:
-    """Class decorator: the decorated :class:`QPBackend` subclass is the one :meth:`QPBackend.confirm` and
-    :meth:`QPBackend.polish` build for ``role`` (``"daqp"``, ``"proxqp"`` or ``"qpsolvers"``)."""
-
-    def register(cls: type) -> type:
-        _BACKEND_CLASSES[role] = cls
-        return cls
-
-    return register
 
 
 def cpu_time() -> float:
@@ -70,14 +58,9 @@ class TickWork:
     __slots__ = ("_solves", "cap", "_clock", "_t0", "reserve", "ticks", "timer")
 
     def __init__(self, cap: float = math.inf, clock: float = math.inf, timer=None):
-        timer = cpu_time if timer is None else timer
-        self.timer = timer
-        self.ticks = 0
-        self._solves = 0
-        self.cap = cap
-        self._clock = clock
-        self._t0 = timer() if clock < math.inf else None
-        self.reserve = 0.0
+        self.timer = cpu_time if timer is None else timer
+        self.ticks = -1  # (reset counts itself)
+        self.reset(cap, clock)
 
     @property
     def solves(self) -> float:
@@ -129,6 +112,12 @@ class QPBackend(ABC):
     name: str = ""
     tolerance: float = 1e-6
 
+    def __init_subclass__(cls, role: str = "", **kwargs):
+        """``role``: this subclass is the one :meth:`confirm` and :meth:`polish` build for it."""
+        super().__init_subclass__(**kwargs)
+        if role:
+            _BACKEND_CLASSES[role] = cls
+
     @abstractmethod
     def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Raw solution, or None on failure."""
@@ -175,19 +164,9 @@ class QPBackend(ABC):
                 # one, plus one per iterations_per_solve iterations the attempt took (a DAQP call that ran to its
                 # iteration cap costs several solves' time: counted so, the tick's later stages stop sooner)
                 self.work.solves += 1 + int(self.last_iterations) // self.iterations_per_solve
-            worst = math.inf
-            if x is not None and np.isfinite(x).all():
-                xc = np.minimum(np.maximum(x, lb), ub)
-                worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
-                if worst <= self.tolerance:
-                    return xc
-                if worst <= POLISH_RANGE:
-                    if self.work is not None:
-                        self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
-                    xp = self.polish(x, A, b, C, l, u, lb, ub)
-                    if xp is not None:
-                        self.polished += 1
-                        return xp
+            xc, worst = self._checked(x, A, b, C, l, u, lb, ub, counted=True)
+            if xc is not None:
+                return xc
         self.last_confirmers = ()
         x_ind, confirmed = (self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm
                             else (None, "nobody (independent re-solve skipped: confirm=False)"))
@@ -201,6 +180,25 @@ class QPBackend(ABC):
         if confirm and self.last_confirmers:  # (none ran — none asked, installed or within the count: unconfirmed)
             raise InfeasibleProblemError(f"QP backend {self.name!r} {what}; infeasibility confirmed by {confirmed}")
         raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
+
+    def _checked(self, x, A, b, C, l, u, lb, ub, counted: bool) -> tuple[np.ndarray | None, float]:
+        """(x projected onto [lb, ub] when it meets every row to ``tolerance``, else its :meth:`polish` within
+        :data:`POLISH_RANGE`, else None; x's largest scaled violation, inf for no or a non-finite x). ``counted``: the
+        polish counts one ``work`` solve, and ``polished`` when it answers."""
+        if x is None or not np.isfinite(x).all():
+            return None, math.inf
+        xc = np.minimum(np.maximum(x, lb), ub)
+        worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
+        if worst <= self.tolerance:
+            return xc, worst
+        if worst <= POLISH_RANGE:
+            if counted and self.work is not None:
+                self.work.solves += 1  # the polish: a least-squares correction, then a projection QP
+            xp = self.polish(x, A, b, C, l, u, lb, ub)
+            if xp is not None:
+                self.polished += counted
+                return xp, worst
+        return None, worst
 
     def polish(self, x, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Primal polish of a near-feasible solution: bounds within 1e-6 (scaled) of x or crossed are fixed, violated
@@ -270,27 +268,17 @@ class QPBackend(ABC):
                                   "no independent solver (tick budget spent: infeasibility not confirmed)")
                 self.work.solves += cost
             try:
-                if name == "proxqp":
-                    backend = _BACKEND_CLASSES["proxqp"](tolerance=self.tolerance, max_iter=200)
-                elif name == "quadprog":
-                    if np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
-                        continue  # quadprog needs H positive definite
-                    backend = _BACKEND_CLASSES["qpsolvers"]("quadprog", tolerance=self.tolerance)
-                else:
-                    backend = _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance)
+                if name == "quadprog" and np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
+                    continue  # quadprog needs H positive definite
+                backend = (_BACKEND_CLASSES["proxqp"](tolerance=self.tolerance, max_iter=200) if name == "proxqp" else
+                           _BACKEND_CLASSES["qpsolvers"](name, tolerance=self.tolerance))
                 x = backend.raw_solve(H, g, A, b, C, l, u, lb, ub)
             except Exception:  # noqa: BLE001 — a crashing independent solver confirms nothing either way
                 x = None
             tried.append(name)
-            if x is not None and np.isfinite(x).all():
-                xc = np.minimum(np.maximum(x, lb), ub)
-                worst = self.scaled_violation(x, xc, A, b, C, l, u, lb, ub)
-                if worst <= self.tolerance:
-                    return xc, ""
-                if worst <= POLISH_RANGE:
-                    xp = self.polish(x, A, b, C, l, u, lb, ub)
-                    if xp is not None:
-                        return xp, ""
+            x = self._checked(x, A, b, C, l, u, lb, ub, counted=False)[0]
+            if x is not None:
+                return x, ""
         return None, ", ".join(tried) or ("no independent solver installed" if self.independent else
                                           "nobody (no independent solver asked: ``independent`` is empty)")
 
@@ -304,32 +292,12 @@ class QPBackend(ABC):
         return xc if QPBackend.scaled_violation(x, xc, A, b, C, l, u, lb, ub) <= tolerance else None
 
     @staticmethod
-    def scaled_violation(x, xc, A, b, C, l, u, lb=None, ub=None) -> float:
+    def scaled_violation(x, xc, A, b, C, l, u, lb, ub) -> float:
         """Largest row violation in the max-norm, each row divided by max(1, |its right-hand side|, Σ_j |a_ij x_j|);
-        bounds measured on x (scaled by the bound), rows on its projection ``xc`` onto them. NaN/inf give inf.
-        Float64 arrays with both bounds go to :func:`wbc.solvers.linalg.scaled_row_violation`."""
-        if lb is not None and ub is not None:
-            try:
-                worst = scaled_row_violation(x, xc, A, b, C, l, u, lb, ub)
-            except TypeError:  # not float64 arrays of the compiled signature: the numpy body below
-                pass
-            else:
-                return worst if math.isfinite(worst) else math.inf
-        worst = 0.0
-        d = np.abs(x - xc)
-        if d.size and d.max() > 0:
-            ref = np.abs(np.where(x > xc, ub, lb)) if lb is not None else 0.0
-            worst = float(np.max(d / np.maximum(1.0, ref)))
-        if A.shape[0] or C.shape[0]:
-            ax = np.abs(xc)
-        if A.shape[0]:
-            r = np.abs(A @ xc - b) / np.maximum(np.maximum(1.0, np.abs(b)), np.abs(A) @ ax)
-            worst = max(worst, float(r.max()))
-        if C.shape[0]:
-            cx = C @ xc
-            ex = np.maximum(l - cx, cx - u)
-            ref = np.where(l - cx > cx - u, np.abs(l), np.abs(u))
-            ref = np.maximum(np.where(np.isfinite(ref), ref, 1.0), np.abs(C) @ ax)
-            ex = np.where(ex > 0, ex, 0.0) / np.maximum(1.0, ref)
-            worst = max(worst, float(ex.max()))
+        bounds measured on x (scaled by the bound), rows on its projection ``xc`` onto them
+        (:func:`wbc.solvers.linalg.scaled_row_violation`, on float64 copies of other arrays). NaN/inf give inf."""
+        try:
+            worst = scaled_row_violation(x, xc, A, b, C, l, u, lb, ub)
+        except TypeError:  # not float64 arrays of the compiled signature
+            worst = scaled_row_violation(*(np.asarray(a, dtype=float) for a in (x, xc, A, b, C, l, u, lb, ub)))
         return worst if math.isfinite(worst) else math.inf

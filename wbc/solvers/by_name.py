@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import qpsolvers
 
-from wbc.solvers.base import INFINITE_BOUND, QPBackend, register_backend_class
+from wbc.solvers.base import INFINITE_BOUND, QPBackend
 
 __all__ = ["QpsolversBackend"]
 
@@ -17,8 +17,7 @@ _SETTINGS = {
 }
 
 
-@register_backend_class("qpsolvers")
-class QpsolversBackend(QPBackend):
+class QpsolversBackend(QPBackend, role="qpsolvers"):
     """Any backend of ``qpsolvers.solve_qp`` (daqp, osqp, quadprog, ...), cold-started each call.
 
     Args:

@@ -8,7 +8,7 @@ from time import thread_time
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.solvers.base import PROX_ITERATIONS_PER_SOLVE, QPBackend, register_backend_class
+from wbc.solvers.base import PROX_ITERATIONS_PER_SOLVE, QPBackend
 
 __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR", "DaqpBackend", "ITERATION_LIMIT",
            "MEASURED_CALL_ITERATIONS", "MEASURED_COST_DECAY", "MIN_CALL_ITERATIONS", "WORK_LIMIT_FACTOR"]
@@ -37,8 +37,7 @@ DAQP_PRIMAL_TOL = 1e-6
 DUAL_RETRY_PRIMAL_FACTOR = 10.0
 
 
-@register_backend_class("daqp")
-class DaqpBackend(QPBackend):
+class DaqpBackend(QPBackend, role="daqp"):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022): bounds are its simple bounds, equalities sense-5 rows. A failed
     warm-started solve is repeated cold (a fresh workspace, then the one-shot ``daqp.solve``); a workspace call that
@@ -70,7 +69,7 @@ class DaqpBackend(QPBackend):
         if self.settings.get("eps_prox", 0.0) > 0.0:
             self.iterations_per_solve = PROX_ITERATIONS_PER_SOLVE  # a proximal iteration's work (TickWork)
         self._model = None
-        self._cold_outcome = None
+        self._cold_ran = False
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
         #: DAQP iterations of the last solve attempt (every call it made).
@@ -156,21 +155,15 @@ class DaqpBackend(QPBackend):
             else:
                 self.budget_capped = True
 
-    def _prepare(self, n: int, n_eq: int, n_in: int) -> None:
-        self._layout = (n, n_eq, n_in)
-        self._dual = None
-        self._G = np.empty((n_eq + n_in, n))
-        self._upper = np.empty(n + n_eq + n_in)
-        self._lower = np.empty(n + n_eq + n_in)
-        self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
-        self._sense[n:n + n_eq] = 5
-        self._model = None
-
     def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
         """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
         n, n_eq, n_in = lb.shape[0], A.shape[0], C.shape[0]
-        if self._layout != (n, n_eq, n_in):
-            self._prepare(n, n_eq, n_in)
+        if self._layout != (n, n_eq, n_in):  # buffers of this size; no warm start of another size
+            self._layout, self._dual, self._model = (n, n_eq, n_in), None, None
+            self._G = np.empty((n_eq + n_in, n))
+            self._upper, self._lower = np.empty(n + n_eq + n_in), np.empty(n + n_eq + n_in)
+            self._sense = np.zeros(n + n_eq + n_in, dtype=np.int32)
+            self._sense[n:n + n_eq] = 5
         G, upper, lower = self._G, self._upper, self._lower
         e = n + n_eq
         upper[:n], lower[:n] = ub, lb  # DAQP reads ±inf (and |bound| ≥ 1e30) as "no bound"
@@ -183,11 +176,11 @@ class DaqpBackend(QPBackend):
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         G, upper, lower = self._daqp_form(A, b, C, l, u, lb, ub)
-        self._cold_outcome = None  # (x, model, multipliers) once this call ran the cold path (_solve_cold reuses it)
-        if self.warm_start == "dual":
-            return self._solve_dual(H, g)
+        self._cold_ran = False  # this call ran the cold path (_solve_cold does not repeat it)
         if self.budget_capped:
             return None  # the tick's work limit stopped a call of this solve: no further call
+        if self.warm_start == "dual":
+            return self._solve_dual(H, g)
         tried_oneshot = self._oneshot_first and self.cold_retry
         if tried_oneshot:
             # the last solve's workspace calls failed where the one-shot solve then succeeded (a strict level whose
@@ -219,8 +212,7 @@ class DaqpBackend(QPBackend):
                 self._model = None
                 x = self._solve_oneshot(H, g)
                 if x is not None:
-                    self._oneshot_first = True
-                    self._cold_outcome = (x, None, self.last_multipliers)
+                    self._oneshot_first = self._cold_ran = True
                     return x
                 if self.budget_capped:
                     return None
@@ -237,19 +229,18 @@ class DaqpBackend(QPBackend):
                 self._model = model
                 self._model_limit = limit
                 self.last_multipliers = info["lam"]
-                self._cold_outcome = (x, model, info["lam"])
+                self._cold_ran = True
                 return x
             self._note_exit(exitflag, limit)
         if not self.cold_retry or self.budget_capped:
             return None
-        if tried_oneshot:  # both cold calls ran and failed (deterministic): _solve_cold does not repeat them
-            self._cold_outcome = (None, None, None)
+        self._cold_ran = True
+        if tried_oneshot:  # both cold calls ran and failed
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
         x = self._solve_oneshot(H, g)
         self._oneshot_first = x is not None
-        self._cold_outcome = (x, None, self.last_multipliers)
         return x
 
     def _solve_oneshot(self, H, g):
@@ -261,21 +252,16 @@ class DaqpBackend(QPBackend):
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self._dual = None
-        outcome = self._cold_outcome
-        if outcome is not None:
-            # the attempt before (QPBackend.solve: same problem) already ran the cold path — a fresh workspace,
-            # then the one-shot solve (dual warm start: the one-shot solve from no dual start, which failed) —
-            # whose answer is deterministic: reused, not computed twice
-            x, model, multipliers = outcome
-            self.last_iterations = 0  # no new solver call
-            if self.warm_start != "dual":
-                self._model, self.last_multipliers = model, multipliers
-        else:
+        x = None
+        if not self._cold_ran:
+            # (else the attempt before, QPBackend.solve's on the same problem, ran the cold path — a fresh workspace,
+            # then the one-shot solve; dual warm start: the one-shot solve from no dual start — and its answer, if
+            # any, failed the check: deterministic, not computed twice)
             self._model = None
             self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)
-        if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
-            return x
+            if x is not None and self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance) is not None:
+                return x
         if self.budget_capped:
             return None  # the tick's work limit stopped this problem's cold solve: no retry
         # the retries below within the tick's counted work left (call_limit)
@@ -326,8 +312,6 @@ class DaqpBackend(QPBackend):
         return xc
 
     def _solve_dual(self, H, g):
-        if self.budget_capped:
-            return None  # the tick's work limit stopped a call of this solve: no further call
         x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
         if x is None and self._dual is not None and self.cold_retry and not self.budget_capped:
             # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
@@ -336,7 +320,7 @@ class DaqpBackend(QPBackend):
         self.last_iterations += int(info["iterations"])
         if x is None:
             self._dual = None
-            self._cold_outcome = (None, None, None)  # this problem's cold solve failed (_solve_cold: not repeated)
+            self._cold_ran = True  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual

@@ -20,7 +20,6 @@ docs/inverse-dynamics-controller.md, "The fallback chain".
 
 from __future__ import annotations
 
-import inspect
 import math
 from time import thread_time
 from typing import Callable
@@ -107,8 +106,6 @@ class FallbackChain:
         self.backend = backend
         self.compiled = compiled
         self.compiled_reason = ""
-        self._takes_confirm: tuple = (None, False)
-        self._confirm_kw  # the backend's signature read here, not inside the first tick
         self.second_opinion_enabled = True  # :meth:`_solve_checked`
         self.daqp_attempt_iterations = ITERATION_LIMIT
         self.tick_work_iterations = math.inf
@@ -148,9 +145,50 @@ class FallbackChain:
             self.relaxed_infeasible_by_check += 1
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
-        if isinstance(self.backend, DaqpBackend):
-            return self._relaxed_daqp(qp)
-        return self._solve_checked(*qp)
+        if not isinstance(self.backend, DaqpBackend):
+            return self._solve_checked(*qp)
+        # a DAQP backend: docs/inverse-dynamics-controller.md, "The relaxed QP"
+        H, g, A, b, C, l, u, lb, ub = qp
+        backend = self.backend
+        backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
+        try:
+            # the attempt's iterations and its DAQP_CALL_WORK within what is left for the relaxed QP
+            left = self._left("RELAXED")
+            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
+                left - DAQP_CALL_WORK, ITERATION_LIMIT))) if math.isfinite(left) else None)
+            if sol is not None:
+                return sol
+            if not backend.budget_capped and self._left("RELAXED") >= MIN_CALL_ITERATIONS:
+                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
+                feasible = self.relaxed_set_feasible
+                if feasible is None and not self._relaxed_check_final:
+                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
+                if feasible is False:
+                    self.relaxed_infeasible_by_check += 1
+                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
+                                      f"onto it): the backend's retries skipped")
+                sol, exc = self._retries(qp, first, "RELAXED")
+                if sol is not None:
+                    return sol
+                if backend.budget_capped or feasible is not True:
+                    raise exc
+                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
+                x, skipped = self._quadprog_within(qp, "RELAXED")
+                if x is None:
+                    raise SolverError(f"{exc}; " + (f"no quadprog solve of the relaxed QP: {skipped}" if skipped else
+                                                    "quadprog found no solution either"))
+                self.relaxed_quadprog_solves += 1
+                return QPSolution(x, "quadprog", "quadprog")
+        except SolverError as exc:
+            if backend.budget_capped:
+                self.budget_cut = True
+                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
+            raise
+        finally:
+            backend.deadline = math.inf
+        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
+        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
+                          f"the relaxed hard-set check and the backend's retries)")
 
     # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain"). Each stage's
     # steps get the DAQP iterations :meth:`_left` answers: counted, what keeps :attr:`tick_work` below its _WORK
@@ -160,7 +198,7 @@ class FallbackChain:
     #: the hard-set checks, the scaled call and the retries
     FAILURE_WORK = 1.0
     FAILURE_END = 1.4
-    #: quadprog runs only when its work (:meth:`_quadprog_work`) fits
+    #: quadprog runs only when its work fits (:meth:`_quadprog_within`)
     QUADPROG_WORK = 1.25
     QUADPROG_END = 1.55
     #: the relaxed QP's calls
@@ -175,19 +213,31 @@ class FallbackChain:
         """No clock guard and a finite :attr:`tick_work_iterations`."""
         return self.tick_clock is None and math.isfinite(self.tick_work_iterations)
 
-    def _left(self, stage: str) -> float:
-        """DAQP iterations left for ``stage`` (``"FAILURE"``, ``"QUADPROG"``, ``"RELAXED"``; ``math.inf``: no
-        limit): below its _WORK factor of budgets of :attr:`tick_work`, or (clock guard) the CPU time left before its
-        _END factor of budgets at :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration."""
-        clock = self.tick_clock
-        if clock is None:
-            return getattr(self, stage + "_WORK") * self.tick_work_iterations - self.tick_work
-        return (clock[0] + getattr(self, stage + "_END") * clock[1] - thread_time()) / DAQP_ITERATION_COST
+    def _factors(self, stage: str) -> tuple[float, float]:
+        """(_WORK, _END) factors of ``stage``: ``"FAILURE"``, ``"QUADPROG"`` or ``"RELAXED"``."""
+        return {"FAILURE": (self.FAILURE_WORK, self.FAILURE_END), "QUADPROG": (self.QUADPROG_WORK, self.QUADPROG_END),
+                "RELAXED": (self.RELAXED_WORK, self.RELAXED_END)}[stage]
 
-    def _quadprog_work(self, n: int) -> float:
-        """quadprog's solve of a QP of ``n`` variables in DAQP iterations: :func:`quadprog_work`, or (clock guard)
-        :attr:`quadprog_cost` / DAQP_ITERATION_COST."""
-        return quadprog_work(n) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
+    def _left(self, stage: str) -> float:
+        """DAQP iterations left for ``stage`` (``math.inf``: no limit): below its _WORK factor of budgets of
+        :attr:`tick_work`, or (clock guard) the CPU time left before its _END factor of budgets at
+        :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration."""
+        work, end = self._factors(stage)
+        if self.tick_clock is None:
+            return work * self.tick_work_iterations - self.tick_work
+        return (self._deadline(end) - thread_time()) / DAQP_ITERATION_COST
+
+    def _quadprog_within(self, qp: QPData, stage: str) -> tuple[np.ndarray | None, str]:
+        """:meth:`_quadprog` of ``qp`` when its work (:func:`quadprog_work`, or with a clock guard
+        :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''); else (None, why not),
+        counted in ``quadprog_skipped`` and ``budget_cut``."""
+        work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
+        if work <= self._left(stage):
+            return self._quadprog(qp, work), ""
+        self.quadprog_skipped += 1
+        self.budget_cut = True
+        return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
+                      f"would pass {self._factors(stage)[0]} budgets")
 
     def _quadprog(self, qp: QPData, work: float) -> np.ndarray | None:
         """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` (x or None), ``work`` counted; its CPU time
@@ -214,18 +264,21 @@ class FallbackChain:
         self._check_final = iterations < limit  # ended before its iteration limit
         return verdict
 
-    def _retry_iterations(self, stage: str) -> int | None:
-        """Iteration cap of each retry call: what :meth:`_left` leaves ``stage`` shared by :attr:`RETRY_CALLS` calls;
-        None when unlimited."""
+    def _retries(self, qp: QPData, first: SolverError, stage: str, done: str = "") -> tuple:
+        """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their
+        :attr:`RETRY_CALLS` calls capped at its share of what :meth:`_left` leaves ``stage``; fewer than
+        MIN_CALL_ITERATIONS left: ``budget_cut``, SolverError (``first`` extended by ``done``, the steps before)."""
+        if not self.backend.cold_retry:
+            raise first
         left = self._left(stage)
-        if not math.isfinite(left):
-            return None
-        return max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
-
-    def _call_work(self, backend: DaqpBackend, proximal: int) -> float:
-        """Work of the backend's last DAQP call(s), in DAQP iterations."""
-        return (backend.last_iterations + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
-                + DAQP_CALL_WORK)
+        calls = None
+        if math.isfinite(left):
+            if left < MIN_CALL_ITERATIONS:
+                self.budget_cut = True
+                raise SolverError(f"{first}{done}; the backend's retries skipped: the tick's counted work "
+                                  f"({self.tick_work:.0f} DAQP iterations) reached {self._factors(stage)[0]} budgets")
+            calls = max(MIN_CALL_ITERATIONS, int(left) // self.RETRY_CALLS - DAQP_CALL_WORK)
+        return self._call(qp, "retries", calls, self._deadline(self._factors(stage)[1]))
 
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
         """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
@@ -253,11 +306,11 @@ class FallbackChain:
             backend.call_iterations = None
             if deadline is not None:
                 backend.deadline = math.inf
+            proximal = PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal)
             if step != "retries":
-                self.tick_work += self._call_work(backend, proximal)
+                self.tick_work += backend.last_iterations + proximal + DAQP_CALL_WORK
             elif calls is not None:
-                self.tick_work += (self.RETRY_CALLS * (calls + DAQP_CALL_WORK)
-                                   + PROXIMAL_ITERATION_WORK * (backend.proximal_iterations - proximal))
+                self.tick_work += self.RETRY_CALLS * (calls + DAQP_CALL_WORK) + proximal
 
     @property
     def retry_deadline(self) -> float:
@@ -272,71 +325,8 @@ class FallbackChain:
 
     @property
     def _confirm_kw(self) -> dict:
-        backend = self.backend
-        if self._takes_confirm[0] is not backend:  # a backend assigned after construction
-            self._takes_confirm = (backend, "confirm" in inspect.signature(backend.solve).parameters)
         # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
-        return {"confirm": False} if self._takes_confirm[1] else {}
-
-    def _relaxed_daqp(self, qp: QPData) -> QPSolution:
-        """The relaxed QP by a DAQP backend (docs/inverse-dynamics-controller.md, "The relaxed QP"). Raises
-        SolverError."""
-        H, g, A, b, C, l, u, lb, ub = qp
-        backend = self.backend
-        retry = backend.cold_retry
-        backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
-        try:
-            # the attempt's iterations and its DAQP_CALL_WORK within what is left for the relaxed QP
-            left = self._left("RELAXED")
-            sol, first = self._call(qp, "attempt", max(MIN_CALL_ITERATIONS, int(min(
-                left - DAQP_CALL_WORK, ITERATION_LIMIT))) if math.isfinite(left) else None)
-            if sol is not None:
-                return sol
-            if not backend.budget_capped and self._left("RELAXED") >= MIN_CALL_ITERATIONS:
-                # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
-                feasible = self.relaxed_set_feasible
-                if feasible is None and not self._relaxed_check_final:
-                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
-                if feasible is False:
-                    self.relaxed_infeasible_by_check += 1
-                    raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
-                                      f"onto it): the backend's retries skipped")
-                if not retry:
-                    raise first
-                calls = self._retry_iterations("RELAXED")
-                if calls is not None and self._left("RELAXED") < MIN_CALL_ITERATIONS:
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; the backend's retries skipped: the tick's counted work "
-                                      f"({self.tick_work:.0f} DAQP iterations) reached {self.RELAXED_WORK} budgets")
-                sol, exc = self._call(qp, "retries", calls)
-                if sol is not None:
-                    return sol
-                if backend.budget_capped or feasible is not True:
-                    raise exc
-                first = exc
-                # the relaxed hard set has a point, so a minimiser that DAQP missed: quadprog, when it fits
-                work = self._quadprog_work(H.shape[0])
-                if work > self._left("RELAXED"):
-                    self.quadprog_skipped += 1
-                    self.budget_cut = True
-                    raise SolverError(f"{first}; no quadprog solve of the relaxed QP: the tick's counted work "
-                                      f"({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) would "
-                                      f"pass {self.RELAXED_WORK} budgets")
-                x = self._quadprog(qp, work)
-                if x is None:
-                    raise SolverError(f"{first}; quadprog found no solution either")
-                self.relaxed_quadprog_solves += 1
-                return QPSolution(x, "quadprog", "quadprog")
-        except SolverError as exc:
-            if backend.budget_capped:
-                self.budget_cut = True
-                raise SolverError(f"{exc} (a DAQP call stopped at the tick's deadline: clock guard)") from exc
-            raise
-        finally:
-            backend.deadline = math.inf
-        self.budget_cut = True  # the first call stopped at the deadline, or no time/work left for the check
-        raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
-                          f"the relaxed hard-set check and the backend's retries)")
+        return {"confirm": False} if isinstance(self.backend, QPBackend) else {}
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
@@ -412,7 +402,6 @@ class FallbackChain:
             if known is False:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"), qp,
                                       relax, known, checked=True)
-        retry = backend.cold_retry
         # the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
         sol, first = self._call(qp, "attempt", cap, self._deadline(self.ATTEMPT_END))
@@ -433,28 +422,16 @@ class FallbackChain:
                 sol = self._call(qp, "scaled call", int(min(scaled_cap, left)), self._deadline(self.FAILURE_END))[0]
                 if sol is not None:
                     return sol
-        work = self._quadprog_work(H.shape[0])
-        if work > self._left("QUADPROG"):
+        x, skipped = self._quadprog_within(qp, "QUADPROG")
+        if skipped:
             # too little work left for quadprog's solve (which cannot be stopped once started), and so for the
             # retries after it
-            self.quadprog_skipped += 1
-            self.budget_cut = True
-            raise SolverError(f"{first}; no quadprog solve: the tick's counted work ({self.tick_work:.0f} DAQP "
-                              f"iterations) and quadprog's ({work:.0f}) would pass {self.QUADPROG_WORK} budgets"
-                              + ("; the backend's retries skipped with it" if retry else ""))
-        x = self._quadprog(qp, work)
+            raise SolverError(f"{first}; no quadprog solve: {skipped}"
+                              + ("; the backend's retries skipped with it" if backend.cold_retry else ""))
         if x is not None:
             self.pinned_reduced_solves += 1
             return QPSolution(x, "quadprog", "quadprog")
-        if not retry:
-            raise first
-        calls = self._retry_iterations("FAILURE")
-        if calls is not None and self._left("FAILURE") < MIN_CALL_ITERATIONS:
-            self.budget_cut = True
-            raise SolverError(f"{first}; quadprog found no solution either; the backend's retries skipped: the "
-                              f"tick's counted work ({self.tick_work:.0f} DAQP iterations) reached {self.FAILURE_WORK} "
-                              f"budgets")
-        sol, exc = self._call(qp, "retries", calls, self._deadline(self.FAILURE_END))
+        sol, exc = self._retries(qp, first, "FAILURE", "; quadprog found no solution either")
         if sol is not None:
             return sol
         if backend.budget_capped or backend.iterations_capped:
@@ -529,12 +506,7 @@ class FallbackChain:
                     return cand
         if answered_by == "quadprog":
             return None
-        work = self._quadprog_work(H.shape[0])
-        if work > self._left("QUADPROG"):  # the same gate as the failure path's quadprog (:meth:`_stages`)
-            self.quadprog_skipped += 1
-            self.budget_cut = True
-            return None
-        xq = self._quadprog(qp, work)
+        xq = self._quadprog_within(qp, "QUADPROG")[0]  # the same gate as the failure path's quadprog (_stages)
         if xq is None:
             return None
         cand = accept(xq, "quadprog")

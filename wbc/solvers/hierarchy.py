@@ -114,30 +114,30 @@ def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rto
     """
     H, g, A, b, C, l, u, lb, ub = qp
     keep = independent_rows(A, rank_rtol)
-    solve_lexicographic.last_cut = None
     dropped = keep.size < A.shape[0]  # nearly dependent equality rows left out
     half = 0.5 * dependent_row_tolerance
-    banded = None
-    if dropped and memo is not None and memo.get(BAND_KEY) is not None \
-            and np.array_equal(memo[BAND_KEY], A):
+
+    def cascade(banded: bool) -> np.ndarray:
+        rows = band_rows(A, b, C, l, u, keep, half) if banded else (A[keep], b[keep], C, l, u)
+        return _cascade(levels, QPData(H, g, *rows, lb, ub), backends, final_backend, band, stop, memo, level_work)
+
+    v = None
+    if dropped and memo is not None and np.array_equal(memo.get(BAND_KEY), A):
         # an earlier cascade on these equality rows (the same tick's: only b or the box changed since) needed the
         # dropped rows as band rows (below): those bands first, one cascade instead of two; a band cascade that
         # fails is forgotten and the full sequence runs
         try:
-            banded = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub), backends,
-                              final_backend, band, stop, memo, level_work)
+            v = cascade(True)
         except SolverError:
             del memo[BAND_KEY]
-    v = banded if banded is not None else _cascade(levels, QPData(H, g, A[keep], b[keep], C, l, u, lb, ub), backends,
-                                                   final_backend, band, stop, memo, level_work)
-    if dropped and banded is None:
-        residual = float(np.max(np.abs(A @ v - b)))
+    if v is None:
+        v = cascade(False)
+        residual = float(np.max(np.abs(A @ v - b))) if dropped else 0.0
         if residual > dependent_row_tolerance:
             # the dropped rows are only nearly dependent (or disagree): the cascade again with them as band rows
             # |A_d v − b_d| ≤ dependent_row_tolerance / 2 (hard, every level); no solution: they contradict
             try:
-                v = _cascade(levels, QPData(H, g, *band_rows(A, b, C, l, u, keep, half), lb, ub), backends,
-                             final_backend, band, stop, memo, level_work)
+                v = cascade(True)
             except SolverError as exc:
                 raise SolverError(f"dependent equality rows violated by {residual:.3g} after the hierarchical "
                                   f"solve, and no solution holds them within ±{half:.3g}: {exc}") from None
@@ -155,43 +155,14 @@ def band_rows(A, b, C, l, u, keep, half) -> tuple:
             np.concatenate([u, b[drop] + half]))
 
 
-def _scaled_cost(H: np.ndarray, g: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(H s, g s, s): a level's cost (H (n, n), g (n,)) divided by s⁻¹ = max(1, |g|∞, |H|max) when |g|∞ · ε (ε the
-    machine epsilon) exceeds the backend's ``tolerance`` (its constraint units), else (H, g, 1.0). The same
-    minimiser: only the solver's rounding changes (the error of H⁻¹(g + Aᵀλ) is ~|g|∞ ε)."""
-    # a hand target 1e6 m away at a gain of 1e4 (|g| ~ 3e11) made DAQP cycle or misjudge a level with ±band rows
-    top = float(np.max(np.abs(g), initial=0.0))
-    if not top * np.finfo(float).eps > tolerance:
-        return H, g, 1.0
-    s = 1.0 / max(1.0, top, float(np.max(np.abs(H), initial=0.0)))
-    return H * s, g * s, s
-
-
-def _retry(kind, Hk, gk, scale, tolerance, rest, l=None, u=None, Fv=None) -> tuple:
-    """The arguments of a level's retry by ``backend.solve`` (:func:`_cascade`): ``"damped"``, the level's cost
-    JᵀJ + μI with μ = 1e-9 · max(``scale``, max diag JᵀJ) (Kanoun et al.'s damped least squares; relative bias
-    ~1e-9); ``"wide"``, the upper levels' images Fv (from the rows l, u of the hard set on) held within
-    ±``tolerance`` · max(1, |Fv|) / 2 instead of the band. ``rest``: (A, b, C, l, u, lb, ub) of the level's QP."""
-    A, b, Ck, lk, uk, lb, ub = rest
-    if kind == "damped":
-        mu = 1e-9 * max(scale, float(np.max(np.diag(Hk))))
-        return Hk + mu * np.eye(Hk.shape[0]), gk, A, b, Ck, lk, uk, lb, ub
-    wide = tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
-    return Hk, gk, A, b, Ck, np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide]), lb, ub
-
-
-def _attempt(backend, args: tuple) -> np.ndarray | None:
-    """``backend.solve(*args)``, or None when it raises SolverError."""
-    try:
-        return backend.solve(*args)
-    except SolverError:
-        return None
-
-
 def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=None, level_work=0.0):
-    """The levels of :func:`solve_lexicographic` on the QP ``qp`` whose equality rows A, b are independent:
-    v."""
-    H, g, A_kept, b_kept, C, l, u, lb, ub = qp
+    """The levels of :func:`solve_lexicographic` on the QP ``qp`` whose equality rows A, b are independent: v.
+
+    A level's QP is asked in turn: the retry ``memo`` recorded for it (a retry that fails is forgotten), the plain
+    QP, the ``damped`` retry (cost JᵀJ + μI, μ = 1e-9 · max(|cost|max, max diag JᵀJ): Kanoun et al.'s damped least
+    squares, relative bias ~1e-9), the ``wide`` retry (the upper levels' images held within ±tolerance · max(1,
+    |J v|) / 2 instead of ±``band``); the first answer stands and a retry's is recorded in ``memo``."""
+    H, g, A, b, C, l, u, lb, ub = qp
     fixed_J: list[np.ndarray] = []
     v = None
     n = H.shape[0]
@@ -201,7 +172,7 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
         F = np.vstack(fixed_J) if fixed_J else None
         if F is not None and determined is None:
-            if A_kept.shape[0] + F.shape[0] >= n and independent_rows(np.vstack([A_kept, F])).size == n:
+            if A.shape[0] + F.shape[0] >= n and independent_rows(np.vstack([A, F])).size == n:
                 # the hard equalities and the levels above fix every direction of v (e.g. a posture level over
                 # every joint under the contacts): the lower levels have nothing left to optimise — v is their
                 # solution too (up to the ±band), and solving them is skipped
@@ -213,63 +184,60 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             return v
         if level_work and backend.work is not None:
             backend.work.solves += level_work  # the level's rows, rank and band set-up around its QP
+        Ck, lk, uk = C, l, u
         if F is not None:
             Fv = F @ v
             Ck, lk, uk = np.vstack([C, F]), np.concatenate([l, Fv - band]), np.concatenate([u, Fv + band])
-        else:
-            Ck, lk, uk = C, l, u
-        if J is None:
-            Hk, gk = H, g
-        else:
-            Hk, gk = J.T @ J, -(J.T @ target)
-        Hk, gk, scale = _scaled_cost(Hk, gk, backend.tolerance)
-        rest = (A_kept, b_kept, Ck, lk, uk, lb, ub)
+        Hk, gk = (H, g) if J is None else (J.T @ J, -(J.T @ target))
+        # a hand target 1e6 m away at a gain of 1e4 (|g| ~ 3e11) made DAQP cycle or misjudge a level with ±band rows:
+        # when |g|∞ ε exceeds the tolerance the cost is divided by max(1, |g|∞, |H|max) (the same minimiser)
+        top = float(np.max(np.abs(gk), initial=0.0))
+        scale = 1.0
+        if top * np.finfo(float).eps > backend.tolerance:
+            s = 1.0 / max(1.0, top, float(np.max(np.abs(Hk), initial=0.0)))
+            Hk, gk, scale = Hk * s, gk * s, s
         key = (k, len(levels))
         first = memo.get(key) if memo is not None else None
-        vk = None
-        if first is not None:
-            # an earlier cascade of this tick (same levels, e.g. a contact correction: only b or the box changed)
-            # solved this level only by its damped or wide-band retry: that retry first (else the full sequence)
-            vk = _attempt(backend, _retry(first, Hk, gk, scale, backend.tolerance, rest, l, u,
-                                          Fv if F is not None else None))
-            if vk is None:
-                del memo[key]  # the hint failed: the full sequence below (which records what solves now)
-                if v is not None and stop is not None and stop():
-                    solve_lexicographic.last_cut = k  # the budget ran out inside this level's solve
-                    return v
-        if vk is None:
+        vk = hard_point = None
+        for kind in [*([first] if first else []), "plain", *(r for r in ("damped", "wide") if r != first)]:
+            if kind == "damped" and J is None:
+                continue
+            if kind == "wide" and v is None:
+                vk = hard_point  # the first level failed twice on a feasible hard set (numerically): its point
+                break
+            args = (Hk, gk, A, b, Ck, lk, uk, lb, ub)
+            if kind == "damped":
+                # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
+                # 5e-6 – 2e-3 off the rows
+                args = (Hk + 1e-9 * max(scale, float(np.max(np.diag(Hk)))) * np.eye(n), *args[1:])
+            elif kind == "wide":
+                # below the first level the problem is feasible by construction: a failure is numerical (a
+                # degenerate ±band); when this fails too, the previous level's v stands
+                wide = backend.tolerance * np.maximum(1.0, np.abs(Fv)) * 0.5
+                args = (*args[:5], np.concatenate([l, Fv - wide]), np.concatenate([u, Fv + wide]), lb, ub)
             try:
-                vk = backend.solve(Hk, gk, A_kept, b_kept, Ck, lk, uk, lb, ub)
+                vk = backend.solve(*args)
             except SolverError as exc:
-                if v is not None and stop is not None and stop():
-                    # the budget ran out inside this level's solve (a backend bounds its solver's iterations by the
-                    # work left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level, with the last
-                    # solved level's v (a point of the hard set, optimal for every level above)
-                    solve_lexicographic.last_cut = k
-                    return v
-                hard_point = None
-                if v is None:
-                    # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned
-                    # QP) — asked before the damped retry, so that an infeasible hard set costs two solves, not three
-                    hard_point = _attempt(backend, (np.eye(n), np.zeros(n), A_kept, b_kept, C, l, u, lb, ub))
-                    if hard_point is None:
-                        raise SolverError(f"priority level {k} of {len(levels)}: {exc}" if J is not None else
-                                          f"soft level below {len(levels)} priority levels: {exc}") from None
-                if J is not None and first != "damped":
-                    # semidefinite JᵀJ with a huge target (|g| ~ 1e9 for a 1e6 m target) was measured to leave DAQP
-                    # 5e-6 – 2e-3 off the rows: once more damped (_retry)
-                    vk = _attempt(backend, _retry("damped", Hk, gk, scale, backend.tolerance, rest))
-                    if vk is not None and memo is not None:
-                        memo[key] = "damped"
-                if vk is None and v is None:
-                    # the first level failed twice on a feasible hard set (numerically): the hard set's point found
-                    vk = hard_point
-                elif vk is None and first != "wide":
-                    # below the first level the problem is feasible by construction: a failure is numerical (a
-                    # degenerate ±band): once more with a band at the solver's tolerance, else the previous level's v
-                    vk = _attempt(backend, _retry("wide", Hk, gk, scale, backend.tolerance, rest, l, u, Fv))
-                    if vk is not None and memo is not None:
-                        memo[key] = "wide"
+                failure = exc
+            else:
+                if kind not in (first, "plain") and memo is not None:
+                    memo[key] = kind
+                break
+            if kind == first:
+                del memo[key]  # the hint failed: the full sequence (which records what solves now)
+            if kind in (first, "plain") and v is not None and stop is not None and stop():
+                # the budget ran out inside this level's solve (a backend bounds its solver's iterations by the work
+                # left, e.g. DaqpBackend.call_limit): no retry — cut here, as before a level
+                solve_lexicographic.last_cut = k
+                return v
+            if kind == "plain" and v is None:
+                # the first level failed: is the hard set itself infeasible? (min ‖v‖² on it, a well-conditioned QP)
+                # — asked before the damped retry, so that an infeasible hard set costs two solves, not three
+                try:
+                    hard_point = backend.solve(np.eye(n), np.zeros(n), A, b, C, l, u, lb, ub)
+                except SolverError:
+                    raise SolverError(f"priority level {k} of {len(levels)}: {failure}" if J is not None else
+                                      f"soft level below {len(levels)} priority levels: {failure}") from None
         if vk is not None:
             v = vk
         if J is not None:

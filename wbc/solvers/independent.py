@@ -98,8 +98,6 @@ def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
     """quadprog with the equality rows eliminated (null-space method, Nocedal & Wright 2006, §16.2: x = x₀ + Z y,
     Aᵀ = [Y Z] [R; 0], A x₀ = b), bounds becoming rows in y, rows the equalities fix dropped. x (n,), or None (no
     or dependent equality rows, a dropped row violated, quadprog failed)."""
-    import quadprog
-
     n, m = H.shape[0], A.shape[0]
     if m == 0 or m >= n:
         return None
@@ -120,16 +118,11 @@ def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
                               | (shift[fixed] > hi[fixed] + tolerance * np.maximum(1.0, np.abs(hi[fixed])))):
         return None
     keep = ~fixed
-    Ry, lo, hi = Ry[keep], lo[keep] - shift[keep], hi[keep] - shift[keep]
-    fl, fh = np.isfinite(lo), np.isfinite(hi)
     Hz = Z.T @ H @ Z
-    gz = Z.T @ (g + H @ x0)
-    try:
-        y = quadprog.solve_qp(0.5 * (Hz + Hz.T), -gz, np.hstack([Ry[fl].T, -Ry[fh].T]),
-                              np.concatenate([lo[fl], -hi[fh]]), 0)[0]
-    except ValueError:
-        return None
-    return x0 + Z @ y
+    free = np.full(n - m, np.inf)
+    y = _dense_solve(0.5 * (Hz + Hz.T), Z.T @ (g + H @ x0), np.zeros((0, n - m)), np.zeros(0), Ry[keep],
+                     lo[keep] - shift[keep], hi[keep] - shift[keep], -free, free)[0]
+    return None if y is None else x0 + Z @ y
 
 
 def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from wbc.exceptions import InvalidInputError
-from wbc.solvers.base import INFINITE_BOUND, QPBackend, register_backend_class
+from wbc.solvers.base import INFINITE_BOUND, QPBackend
 
 __all__ = ["PROXQP_MAX_ITER", "ProxQPBackend"]
 
@@ -15,8 +15,7 @@ __all__ = ["PROXQP_MAX_ITER", "ProxQPBackend"]
 PROXQP_MAX_ITER = 1000
 
 
-@register_backend_class("proxqp")
-class ProxQPBackend(QPBackend):
+class ProxQPBackend(QPBackend, role="proxqp"):
     """proxsuite's dense ProxQP, warm-started from the previous tick's solution and dual variables.
 
     Args:

@@ -37,12 +37,7 @@ def make_backend(name: str, **settings) -> QPBackend:
     Raises:
         UnknownSolverError: the name is not installed; the message lists the available ones.
     """
-    if name == "fast":
-        return FastBackend(**settings)
     if name not in available_solvers():
         raise UnknownSolverError(f"unknown or uninstalled QP solver {name!r}; available: {available_solvers()}")
-    if name == "proxqp":
-        return ProxQPBackend(**settings)
-    if name == "daqp":
-        return DaqpBackend(**settings)
-    return QpsolversBackend(name, **settings)
+    own = {"fast": FastBackend, "proxqp": ProxQPBackend, "daqp": DaqpBackend}.get(name)
+    return QpsolversBackend(name, **settings) if own is None else own(**settings)
