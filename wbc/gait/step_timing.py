@@ -15,9 +15,10 @@ touch-down is linear in the variables ``x = (u_T, τ, b) ∈ R^5``:
 
     (K4)              e^{ωT_min} ≤ τ ≤ e^{ωT_max}
 
-(K1)–(K4) are the paper's QP (its Sec. III: the nominal values of a gait, a viable state kept viable by the next
-step's location and timing alone), here with the reach in the stance sole's heading frame ``R_s``, ``s`` the stance
-sole, ``σ = ±1`` towards the swing side: ``w_min`` > 0 keeps the swing foot from crossing the stance leg. The nominal
+(K1)–(K4) are the paper's QP — a viable state kept viable by the next step's location and time alone, with the
+step time as ``τ = e^{ωT}`` so that the constraint is linear (the labels K1–K4 are this module's, not the paper's
+equation numbers) — here with the reach in the stance sole's heading frame ``R_s``, ``s`` the stance sole,
+``σ = ±1`` towards the swing side: ``w_min`` > 0 keeps the swing foot from crossing the stance leg. The nominal
 values come from the walk's plan: ``u_nom`` its footstep, ``τ_nom = e^{ωT_nom}``, and ``b_nom`` the offset of its
 DCM ``ξ_ref(t)`` (``b_nom = u_0 + (ξ_ref(t) − u_0) e^{ω(T_nom − t)} − u_nom``), so that ``ξ(t) = ξ_ref(t)`` gives
 the nominal step back (eq. 1 of :mod:`wbc.gait.step_adjustment` is (K1) with ``τ = τ_nom``, ``b = b_nom``).
@@ -42,9 +43,11 @@ from wbc.exceptions import GaitError
 
 __all__ = ["StepTiming", "StepTimingQP", "STEP_TIMING_WEIGHTS"]
 
-#: (α_u, α_τ, α_b) of (K2) (module docstring): landing 1 per m², ``τ`` 5 per unit², DCM offset 1000 per m² — the
-#: ratios of Khadiv et al. (Humanoids 2016, Sec. V): the offset is held nearly at its nominal value, the landing
-#: moves first, the step time when the landing cannot.
+#: (α_u, α_τ, α_b) of (K2) (module docstring): landing 1 per m², ``τ`` 5 per unit², DCM offset 1000 per m². Chosen
+#: here, not taken from the paper: the offset held nearly at its nominal value, so that with the time held the
+#: landing is eq. 1 of :mod:`wbc.gait.step_adjustment` clipped to the reach (to 0.1 %); α_τ = 1 cut the pushed
+#: walk of ``tests/sim/test_walk.py`` (towards the stance leg) into QP failures of the controller (10 ticks), 5 did
+#: not (benchmarks/records/41-step-timing-qp.md).
 STEP_TIMING_WEIGHTS = (1.0, 5.0, 1000.0)
 
 _INF = 1e30  # DAQP's "no bound"
