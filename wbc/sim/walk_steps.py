@@ -187,7 +187,8 @@ class WalkSteps:
         sol = None
         for _ in range(2):  # the earliest landing time depends on the landing: once more from the QP's landing
             t_min = t + max(self.min_time_left, descent + float(np.linalg.norm(foot - land)) / self.max_swing_speed)
-            if t_min >= t_cur - 0.02:
+            if t_min >= t_cur - 0.02:  # (no cut the foot can travel)
+                sol = None
                 break
             sol = self.timing_qp.solve(xi_b, stance=stance, stance_cop=u0, swing_left=fs0.side == "left",
                                        elapsed=t, landing_nom=un, duration_nom=t_nom, offset_nom=bn, t_min=t_min,
