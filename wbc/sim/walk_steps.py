@@ -190,9 +190,13 @@ class WalkSteps:
             if t_min >= t_cur - 0.02:  # (no cut the foot can travel)
                 sol = None
                 break
-            sol = self.timing_qp.solve(xi_b, stance=stance, stance_cop=u0, swing_left=fs0.side == "left",
-                                       elapsed=t, landing_nom=un, duration_nom=t_nom, offset_nom=bn, t_min=t_min,
-                                       t_max=t_cur)
+            try:
+                sol = self.timing_qp.solve(xi_b, stance=stance, stance_cop=u0, swing_left=fs0.side == "left",
+                                           elapsed=t, landing_nom=un, duration_nom=t_nom, offset_nom=bn,
+                                           t_min=t_min, t_max=t_cur)
+            except GaitError:  # (DAQP's exit flag: the time held, the landing of eq. 1)
+                self.replan_failures += 1
+                return target, 0
             if float(np.linalg.norm(foot - sol.landing)) / self.max_swing_speed + descent <= sol.duration - t + 1e-9:
                 break
             land = sol.landing
