@@ -72,17 +72,6 @@ def _plan():
                      t_init=0.6, t_final=0.8)
 
 
-def test_correction_clip_is_the_part_of_the_correction_the_reach_removes():
-    """Inside the reach nothing is clipped; a correction towards the stance leg is clipped by its excess over
-    min_width (numbers worked here: nominal 0.2 m to the left of the stance sole, min_width 0.18 m)."""
-    adj = _adjuster()
-    stance, nominal = (0.0, 0.0, 0.0), Footstep("left", 0.1, 0.2, 0.0)
-    d = np.array([0.05, 0.1])
-    assert adj.correction_clip(nominal, stance, d, adj.landing(nominal, stance, d)) == pytest.approx(0.0, abs=1e-12)
-    d = np.array([0.0, -0.1])  # wants y = 0.1 < min_width 0.18: clipped by 0.08 m
-    assert adj.correction_clip(nominal, stance, d, adj.landing(nominal, stance, d)) == pytest.approx(0.08, abs=1e-12)
-
-
 def test_stretch_samples_lengthen_a_late_swing_until_the_landing_is_in_reach():
     """The lengthening returned makes the landing of eq. 2 reachable at the foot's speed (checked here with the
     adjuster's own correction and landing, and that one 10 ms step less would not); none when the foot is close

@@ -33,9 +33,10 @@ cut short), the DCM at landing is ``u_0 + (ξ − u_0) e^{ωτ'}`` and the nomin
 which is (1) for ``τ' = τ``. A step that cannot reach the landing (1) — the reach clips it, e.g. a push towards the
 stance leg: the swing foot cannot cross — is cut short so that the next step, which can, comes sooner; a step
 clipped at its outer reach lands sooner with a DCM that diverged less (``e^{ωτ'} < e^{ωτ}`` in (2)). This is the
-trade-off Khadiv et al. (2016, Sec. IV; 2020, Sec. IV) solve in one QP over location and ``e^{ωT}``; here the time
-is cut by a fixed amount, bounded so that the swing foot can still travel to the new landing
-(:class:`wbc.sim.walk.WalkScenario`, ``max_swing_speed``).
+trade-off Khadiv et al. (2016; 2020) solve in one QP over location and ``e^{ωT}``
+(:class:`wbc.gait.step_timing.StepTimingQP`, which :class:`wbc.sim.walk.WalkScenario` solves per tick of a swing
+for the time and, when the time changes, the landing); (2) stays as the landing of a swing lengthened late
+(:meth:`StepAdjuster.stretch_samples`).
 
 Dead band (Griffin 2017) on the DCM error: ``d = e^{ωτ} max(0, 1 − δ/‖e‖) e`` with ``e = ξ − ξ_ref``: the DCM
 errors of normal walking stay with the CoP feedback of the stabilizer, and the adjustment is continuous in ``e``.
@@ -156,17 +157,6 @@ class StepAdjuster:
                 break
             fy = min(fy + 0.01, self.max_width)
         return Footstep(nominal.side, x, y, nominal.yaw)
-
-    def correction_clip(self, nominal: Footstep, stance: tuple[float, float, float], correction: np.ndarray,
-                        target: Footstep) -> float:
-        """How far (m) the reach clips the DCM correction ``correction`` (2,) (m, world xy): the distance from the
-        ``nominal`` landing projected onto the reach of the ``stance`` sole ``(x, y, yaw)`` (:meth:`landing` with no
-        correction), moved by the correction, to the adjusted landing ``target``. The reach's clip of the nominal
-        landing itself is left out: it is not a disturbance the step timing must capture (a stance sole that rolls
-        or spins on a bump under a blind plan turns its heading, and the nominal landing, by then out of the turned
-        reach, asked for a timing cut with no DCM error)."""
-        n0 = self.landing(nominal, stance, np.zeros(2))
-        return math.hypot(n0.x + float(correction[0]) - target.x, n0.y + float(correction[1]) - target.y)
 
     def stretch_samples(self, limits: StretchLimits, nominal: Footstep, current: Footstep,
                         stance: tuple[float, float, float], correction: np.ndarray, target: Footstep, foot,

@@ -32,9 +32,10 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
   capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
-  on): a swing whose landing correction the reach clips by more than 5 cm is cut short (eq. 2), no more than its foot
-  can still travel at ``max_swing_speed``; late in a swing, a landing the foot can no longer reach in time lengthens
-  the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
+  on): the landing and the touch-down time of the swing from one QP on the DCM
+  (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020), the swing cut short when the QP lands it 0.02 s
+  or more earlier, no earlier than its foot can still travel at ``max_swing_speed``; late in a swing, a landing the
+  foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
   ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
@@ -64,6 +65,7 @@ from wbc.gait.blind import BLIND_XY_END, blind_swing_into
 from wbc.gait.commands import feet_can_yaw
 from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
+from wbc.gait.step_timing import StepTimingQP
 from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
@@ -142,25 +144,23 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             ``adjust_freeze`` (s): no change in the last part of a swing. Reach (stance heading frame): forward
             ``forward_reach z_c``, backward ``0.35 z_c``, lateral from ``sole width + 0.05`` to ``step width + lateral_reach z_c``
             (``z_c`` the CoM height).
-        adjust_timing: step timing adjustment (Khadiv et al. 2016, Sec. III–IV: when the location saturates at the
-            reach, the step time is the remaining means of capture; default on). The swing in progress is cut
-            short (by at most ``max_cut`` s, to no less than ``min_time_left`` s before landing; eq. 2 of
-            :mod:`wbc.gait.step_adjustment`, :meth:`wbc.gait.WalkPlan.replan` ``skip``) when the reach clips the
-            landing's DCM correction by more than 5 cm (``StepAdjuster.correction_clip``: the nominal landing's own
-            clip not counted): landing sooner, the DCM has diverged less when the new stance
-            starts (eq. 2 with ``τ' < τ``), and the next step comes sooner — the step by the other foot when this one
-            cannot cross the stance leg. Not while the measured DCM is inside the stance sole (0-step capturable,
-            ``_capturable``). Once per swing, and never more than the swing foot can still travel:
-            the remaining time is kept ≥ (distance from the foot to its new landing) / ``max_swing_speed`` (m/s,
-            default 2.5; touch-down is armed at mid-swing in sim time, so a hurried swing does not touch down on its
-            way). Defaults ``max_cut`` 0.3 s, ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7, ``cmp_offset``
-            0.04 m, tuned on the pushed walks of ``benchmarks/walk_push_trials.py`` (``benchmarks/README.md``): a push
-            towards the stance leg needs two quick steps (the inner foot, which cannot cross, then the outer one)
-            and the DCM diverges from the stance CoP meanwhile. The swing in progress is **lengthened** instead (by
-            at most
-            ``max_stretch`` s) when, in its last ``stretch_window`` s, the adjusted landing is farther from the foot
-            than ``stretch_speed`` (m/s) times the time left (``_stretch``: a push late in a swing towards the swing
-            side; the foot lands later and further out, ``adjust_freeze`` notwithstanding).
+        adjust_timing: step timing adjustment (Khadiv et al. 2020; default on): per tick of a single support, the
+            landing and touch-down time from one QP on the measured DCM (:class:`wbc.gait.step_timing.StepTimingQP`,
+            ``_step_timing``), which changes the time when the reach stops the landing (a push towards the stance
+            leg, which the swing foot cannot cross, or beyond the outer reach): landing sooner, the DCM has
+            diverged less and the next step comes sooner. A QP time 0.02 s or more before the planned touch-down
+            cuts the swing short to it (:meth:`wbc.gait.WalkPlan.replan` ``skip``) onto the QP's landing. ``T`` is
+            at least ``min_time_left`` s from now and (distance from the foot to the landing) / ``max_swing_speed``
+            (m/s, default 2.5; touch-down is armed at mid-swing in sim time, so a hurried swing does not touch
+            down on its way). Not while the measured DCM is inside the stance sole (0-step capturable,
+            ``_capturable``); again each time the QP's time moves 0.02 s or more earlier (a cut is not undone). Defaults ``max_swing_speed`` 2.5 m/s, ``lateral_reach`` 0.7,
+            ``cmp_offset`` 0.04 m, tuned on the pushed walks of ``benchmarks/walk_push_trials.py``
+            (``benchmarks/README.md``): a push towards the stance leg needs two quick steps (the inner foot, which
+            cannot cross, then the outer one) and the DCM diverges from the stance CoP meanwhile. The swing in
+            progress is **lengthened** instead (by at most ``max_stretch`` s) when, in its last ``stretch_window``
+            s, the adjusted landing is farther from the foot than ``stretch_speed`` (m/s) times the time left
+            (``_stretch``: a push late in a swing towards the swing side; the foot lands later and further out,
+            ``adjust_freeze`` notwithstanding).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
         stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s}`` (either or both; default the
             stabilizer's own). Its CoP feedback gain k_z is ``zmp_feedback``.
@@ -185,8 +185,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         await_load: a sole the height test sets down after its planned landing time at a measured force below
             that fraction waits for it before its load ramp starts (``ContactSwitcher`` ``await_load``; the robot
             file's ``touchdown = "load"``; default False).
-        min_time_left, max_cut, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step
-            timing adjustment bounds (s, s, m/s, s, m/s, m, s) described under ``adjust_timing``.
+        min_time_left, max_swing_speed, max_stretch, stretch_speed, stretch_min, stretch_window: step timing
+            adjustment bounds (s, m/s, s, m/s, m, s) described under ``adjust_timing``.
         from_state: plan from the measured CoM velocity (not from rest) and place the first step from the measured
             DCM (eq. 1 of :mod:`wbc.gait.step_adjustment` with no dead band, the time left being the time to the
             first touch-down) — a capture step started by :class:`wbc.sim.capture_step.CaptureStepScenario`.
@@ -252,7 +252,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  step_adjust: bool = True, adjust_dead_band: float = 0.02, adjust_freeze: float = 0.05,
                  first_side: str | None = None, step_lateral: float = 0.0, from_state: bool = False,
                  from_motion: bool = False,
-                 adjust_timing: bool = True, min_time_left: float = 0.15, max_cut: float = 0.3,
+                 adjust_timing: bool = True, min_time_left: float = 0.15,
                  lateral_reach: float = 0.7, forward_reach: float = 0.65, max_swing_speed: float = 2.5,
                  cmp_offset: float = 0.04, max_stretch: float = 0.15, stretch_speed: float = 1.0,
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
@@ -336,7 +336,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             raise InvalidInputError("from_state and from_motion are exclusive: from_state also places the first "
                                     "step from the measured DCM; choose one")
         self.adjust_timing, self.min_time_left = bool(adjust_timing), float(min_time_left)
-        self.max_cut = float(max_cut)
         self.max_swing_speed = float(max_swing_speed)
         self.cmp_offset = float(cmp_offset)
         self.max_stretch, self.stretch_speed, self.stretch_min = float(max_stretch), float(stretch_speed), \
@@ -390,10 +389,11 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             plan = self.terrain_walk.plan
         zc = float(self.com0[2])
         w0 = abs(float((L.translation - R.translation) @ L.rotation[:, 1]))
-        self.adjuster = StepAdjuster(plan.omega, max_forward=self.forward_reach * zc, max_backward=0.35 * zc,
-                                     min_width=robot.sole_width + 0.05, max_width=w0 + self.lateral_reach * zc,
-                                     dead_band=self.adjust_dead_band, sole_length=robot.sole_length,
-                                     sole_width=robot.sole_width)
+        reach = dict(max_forward=self.forward_reach * zc, max_backward=0.35 * zc, min_width=robot.sole_width + 0.05,
+                     max_width=w0 + self.lateral_reach * zc)
+        self.adjuster = StepAdjuster(plan.omega, **reach, dead_band=self.adjust_dead_band,
+                                     sole_length=robot.sole_length, sole_width=robot.sole_width)
+        self.timing_qp = StepTimingQP(plan.omega, **reach)
         yaws = [fs.yaw for fs in plan.footsteps]
         if yaws and max(yaws) - min(yaws) > 0.01 and not feet_can_yaw(robot, q):  # > 0.6 deg
             raise GaitError(f"{robot.name}'s legs cannot yaw one sole relative to the other (no hip yaw joint: the "
@@ -432,7 +432,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
         self._skipped = -1  # swing whose timing was changed (cut short)
         self._stretched = -1  # swing that was lengthened
-        self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing
+        self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing or its last cut
+        self._nominal = None  # (swing index, footstep, DCM reference) at the start of the current swing
+        self._cut_samples = 0  # samples by which the current swing was cut short so far
         self.adjustments: list[tuple[float, str, float, float]] = []  # (t, side, dx, dy) vs the nominal step
         self.replan_failures = 0
         self._recovery, self._t_recovery = None, None

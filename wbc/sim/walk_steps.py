@@ -91,7 +91,8 @@ class WalkSteps:
         if self.switcher.phase(side) != "swing":
             return
         if self._base is None or self._base[0] != idx:
-            self._base = (idx, fs, self.ref_dcm.copy())
+            self._base = self._nominal = (idx, fs, self.ref_dcm.copy())
+            self._cut_samples = 0
         time_left = (k_td - k) * self.dt
         # blind: the vertical descent (the last 1 - BLIND_XY_END of the swing) may end on a bump at any tick, so its
         # foothold no longer moves; before it, the foot must reach the foothold by the descent's start
@@ -122,18 +123,9 @@ class WalkSteps:
             target = self.adjuster.landing(fs0, stance, corr)
         elif frozen:
             return
-        if not skip and self.adjust_timing and time_left > self.min_time_left + 0.02 \
-                and self._skipped != idx and self._stretched != idx \
-                and self.adjuster.correction_clip(fs0, stance, corr, target) > 0.05 and not self._capturable(xi, other):
-            # The swing foot must still reach its landing: at most ``max_swing_speed`` on average over the
-            # shortened swing (a swing compressed too much touches the floor on its way, short of its target).
-            dist = float(np.linalg.norm(foot - [target.x, target.y]))
-            cut = min(time_left - self.min_time_left, self.max_cut, time_left - descent - dist / self.max_swing_speed)
-            skip = int(round(cut / self.dt)) if cut >= 0.02 else 0
-            if skip:
-                u0 = np.array(stance[:2])
-                corr = self.adjuster.correction(xi, dcm0[k], time_left, time_left - skip * self.dt, u0)
-                target = self.adjuster.landing(fs0, stance, corr)
+        elif self.adjust_timing and time_left > self.min_time_left + 0.02 and self._stretched != idx \
+                and not self._capturable(xi, other):
+            target, skip = self._step_timing(idx, k, xi, stance, foot, target, descent)
         d = np.array([target.x - fs.x, target.y - fs.y])
         if np.linalg.norm(d) < 0.01 and not skip:
             return
@@ -159,11 +151,60 @@ class WalkSteps:
             self._shift += skip
             if skip > 0:
                 self._skipped = idx
+                self._cut_samples += skip
             else:
                 self._stretched = idx
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _step_timing(self, idx, k, xi, stance, foot, target, descent):
+        """(landing, samples to cut) of the swing ``idx`` at plan sample ``k`` from the step timing QP
+        (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020): the landing and the touch-down time
+        together, from the measured DCM ``xi`` dead-banded against the swing's nominal DCM plan (as
+        :meth:`StepAdjuster.correction <wbc.gait.step_adjustment.StepAdjuster.correction>`), the nominal values
+        of the plan at the swing's start (its footstep, single-support time and DCM offset, whatever was cut
+        since), the reach around the ``stance`` sole, and ``T`` between the current touch-down time (cuts only
+        shorten) and the earliest time at which the ``foot`` (x, y) still reaches the landing at
+        ``max_swing_speed`` (after ``descent`` s of vertical descent, blind), at least ``min_time_left`` s from
+        now. ``target`` (the landing of eq. 1, clipped) and no cut when the QP's time is less than 0.02 s before
+        the current one: the QP's landing with the time held is that landing (its DCM offset weighted so much more
+        than the landing, :data:`wbc.gait.step_timing.STEP_TIMING_WEIGHTS`)."""
+        _, fs0, dcm0 = self._nominal
+        k_lift, k_td, cut = self.swings[idx][1], self.swings[idx][2], self._cut_samples
+        dt = self.dt
+        t, t_nom = (k - k_lift - cut) * dt, (k_td - k_lift) * dt  # since the release; the plan's duration
+        t_cur = t_nom - cut * dt
+        xi_ref = dcm0[k - cut]
+        e = np.asarray(xi, float) - xi_ref
+        n = float(np.linalg.norm(e))
+        band = self.adjuster.dead_band
+        xi_b = xi_ref + (0.0 if n <= band else 1.0 - band / n) * e
+        u0 = np.array(stance[:2])
+        un = np.array([fs0.x, fs0.y])
+        bn = self.timing_qp.nominal_offset(xi_ref, u0, un, t_nom - t)
+        land = np.array([target.x, target.y])
+        sol = None
+        for _ in range(2):  # the earliest landing time depends on the landing: once more from the QP's landing
+            t_min = t + max(self.min_time_left, descent + float(np.linalg.norm(foot - land)) / self.max_swing_speed)
+            if t_min >= t_cur - 0.02:  # (no cut the foot can travel)
+                sol = None
+                break
+            try:
+                sol = self.timing_qp.solve(xi_b, stance=stance, stance_cop=u0, swing_left=fs0.side == "left",
+                                           elapsed=t, landing_nom=un, duration_nom=t_nom, offset_nom=bn,
+                                           t_min=t_min, t_max=t_cur)
+            except GaitError:  # (DAQP's exit flag: the time held, the landing of eq. 1)
+                self.replan_failures += 1
+                return target, 0
+            if float(np.linalg.norm(foot - sol.landing)) / self.max_swing_speed + descent <= sol.duration - t + 1e-9:
+                break
+            land = sol.landing
+        skip = 0 if sol is None else int(round((t_cur - sol.duration) / dt))
+        if skip * dt < 0.02 - 1e-9:
+            return target, 0
+        moved = Footstep(fs0.side, float(sol.landing[0]), float(sol.landing[1]), fs0.yaw)
+        return self.adjuster.landing(moved, stance, np.zeros(2)), skip
 
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
         """Samples by which to lengthen the swing ``idx`` in progress (0: none): in the last ``stretch_window`` s of
