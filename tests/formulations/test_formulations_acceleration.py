@@ -1,6 +1,7 @@
 """One assembly of the inverse-dynamics QP (:mod:`wbc.formulations.acceleration`): the QP a ``fast`` QP solved is
 bitwise the QP a ``daqp`` one builds at the same state (:meth:`InverseDynamicsQP.build`, every backend's), and the
 compiled solver's answer is the optimum an independent solver (quadprog, Goldfarb–Idnani on the dense QP) finds on it.
+Its dynamics rows (floating base, torque limits) are checked against Pinocchio's equations of motion directly.
 
 Property test (hypothesis) over random task sets (CoM, torso orientation and posture tasks, plus random frame, position and orientation tasks, with random
 weights, gains, targets and acceleration feed-forwards), random contact sets (each sole active or released, random
@@ -169,6 +170,46 @@ def test_compiled_tick_solves_the_general_assembly(name, seed, which, active, pa
     lam = np.linalg.eigvalsh(H)
     bound = F_ROUNDING * (lam[-1] / lam[0]) * max(1.0, float(np.max(np.abs(x_ref[nv:]), initial=0.0)))
     assert np.max(np.abs(x[nv:] - x_ref[nv:]), initial=0.0) <= bound
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(name=st.sampled_from(ROBOTS), seed=st.integers(0, 2**32 - 1),
+       active=st.lists(st.booleans(), min_size=2, max_size=2), partial=st.lists(st.booleans(), min_size=2, max_size=2))
+def test_the_assembled_dynamics_rows_are_pinocchios_equations_of_motion(name, seed, active, partial):
+    """The one assembly's dynamics rows against Pinocchio, independently of how they are gathered: for a random x =
+    [v̇; f], the floating-base equality rows give (M v̇ + h − Σ_k J_kᵀ w_k)[:6] and the torque rows give
+    (M v̇ − Σ_k J_kᵀ w_k)[6:], with their bounds ∓τ_max − h[6:] (eqs. (4) and (6) of the module), where M is CRBA,
+    h = nle(q, v) (Coriolis and gravity at a random v), J_k the LOCAL sole Jacobian and w_k = Σ_i (f_i, c_i × f_i)
+    the wrench of the 4 corner forces at the (possibly partial-support) corners c_i in the sole frame; an inactive
+    sole's forces are pinned to 0 by the bounds."""
+    robot = _robot(name)
+    rng = np.random.default_rng(seed)
+    tasks, contacts, state = _problem(robot, rng, [True, False, True], active, partial)
+    H, g, A, b, C, l, u, lb, ub = InverseDynamicsQP(robot, tasks, contacts, solver="daqp").build(state, DT)
+    model, data = robot.model, robot.model.createData()
+    nv, na = model.nv, model.nv - 6
+    M = pin.crba(model, data, state.q)
+    M = np.triu(M) + np.triu(M, 1).T
+    h = pin.nle(model, data, state.q, state.v)
+    pin.computeJointJacobians(model, data, state.q)
+    x = rng.normal(0.0, 1.0, H.shape[0]) * np.where(np.arange(H.shape[0]) < nv, 1.0, 100.0)  # (rad/s², N)
+    tau = M @ x[:nv]
+    for k, contact in enumerate(contacts):
+        if not contact.active:  # its forces pinned to 0 by the bounds (eq. (8)), whatever its columns hold
+            cols = slice(nv + 12 * k, nv + 12 * k + 12)
+            assert np.all(lb[cols] == 0.0) and np.all(ub[cols] == 0.0)
+            x[cols] = 0.0
+            continue
+        J = pin.getFrameJacobian(model, data, model.getFrameId(contact.frame), pin.LOCAL)
+        f = x[nv + 12 * k: nv + 12 * k + 12].reshape(4, 3)
+        w = np.concatenate([f.sum(axis=0), np.cross(contact.corners, f).sum(axis=0)])
+        tau -= J.T @ w
+    scale = max(1.0, float(np.abs(tau).max()), float(np.abs(h).max()))
+    np.testing.assert_allclose(A[:6] @ x - b[:6], tau[:6] + h[:6], rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(C[:na] @ x, tau[6:], rtol=0, atol=1e-12 * scale)
+    tau_max = model.effortLimit[6:]
+    np.testing.assert_allclose(l[:na], -tau_max - h[6:], rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(u[:na], tau_max - h[6:], rtol=0, atol=1e-12 * scale)
 
 
 def test_the_property_test_reached_the_compiled_tick_on_every_robot():
