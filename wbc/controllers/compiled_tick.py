@@ -223,14 +223,7 @@ class CompiledTick:
             # with this v); each contact frame placed (data.oMf), what error_into reads
             ndata = config.lookahead(plan.vdt)
             lever = self._drift_lever()
-            if ndata is None:  # a configuration subclass with its own update: the frames' supporting joints only
-                ndata = self._drift_data
-                q_next = pin.integrate(model, q, plan.vdt)
-                for c, log in plan.contact_logs:
-                    pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
-                    c.error_into(ndata, log)
-                far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
-            elif len(plan.contact_logs) == 2:  # a biped's two soles: one compiled call (contact_pair_drift)
+            if ndata is not None and len(plan.contact_logs) == 2:  # a biped's two soles: one compiled call
                 (ca, _), (cb, _) = plan.contact_logs
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
@@ -240,8 +233,14 @@ class CompiledTick:
                     plan.drift_kernel = specialise(contact_pair_drift, *args)
                 far, drift = plan.drift_kernel(*args)
             else:
+                # a configuration subclass with its own update (ndata None): the frames' supporting joints only
+                q_next = pin.integrate(model, q, plan.vdt) if ndata is None else None
+                ndata = self._drift_data if ndata is None else ndata
                 for c, log in plan.contact_logs:
-                    pin.updateFramePlacement(model, ndata, c.frame_id)
+                    if q_next is None:
+                        pin.updateFramePlacement(model, ndata, c.frame_id)
+                    else:
+                        pin.computeFrameJacobian(model, ndata, q_next, c.frame_id, LOCAL_WORLD_ALIGNED)
                     c.error_into(ndata, log)
                 far, drift = contact_drift(plan.logs, b, self._contact_starts, self._contact_factors, lever)
             if (self.contact_correction > 0 and far > self.contact_correction) or (

@@ -255,21 +255,13 @@ class VelocityQP:
         for c, sel in boxes:
             if skip and id(c) in skip:
                 continue
-            if not first and record is None:  # in place: the box's own intersection (compiled where it has one)
-                if isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
-                    lo, hi = c.compute(config, dt)
-                    clip_box_into(lb, ub, sel.start, lo, hi)  # the generic clip, compiled on a contiguous block
-                else:
-                    c.intersect_into(config, dt, lb, ub)
-                continue
-            lo, hi = c.compute(config, dt)
-            if not first:  # clip into the running box (the first box meets ±inf only)
-                cur_lo, cur_hi = lb[sel], ub[sel]
-                lo = np.minimum(np.maximum(lo, cur_lo), cur_hi)
-                hi = np.maximum(np.minimum(hi, cur_hi), cur_lo)
-            first = False
-            lb[sel] = lo
-            ub[sel] = hi
+            if first:  # the first box meets ±inf only
+                lb[sel], ub[sel] = c.compute(config, dt)
+                first = False
+            elif isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
+                clip_box_into(lb, ub, sel.start, *c.compute(config, dt))  # the generic clip, compiled on a block
+            else:
+                c.intersect_into(config, dt, lb, ub)  # in place: the box's own intersection (compiled where it has one)
             if record is not None:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 

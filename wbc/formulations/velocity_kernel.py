@@ -390,15 +390,14 @@ def kinematic_views(fb, ib):
     as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
-    H, o = carve2(fb, 0, nv, nv)
+    M, o = carve2(fb, 0, nv + neq + p + 2, nv)  # H, A, C, lb, ub: one view (each reshape costs a call)
     g, o = carve(fb, o, nv)
-    A, o = carve2(fb, o, neq, nv)
     b, o = carve(fb, o, neq)
-    C, o = carve2(fb, o, p, nv)
     l, o = carve(fb, o, p)
     u, o = carve(fb, o, p)
-    box, o = carve2(fb, o, 2, nv)
-    return KinematicQP(H, g, A, b, C, l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
+    e = nv + neq + p
+    box = M[e:]
+    return KinematicQP(M[:nv], g, M[nv:nv + neq], b, M[nv + neq:e], l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

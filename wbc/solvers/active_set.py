@@ -586,20 +586,19 @@ def solve_qp_into(qp, arrays, limits, fw, iw):
     m = A.shape[0]
     p = C.shape[0]
     K = n + m + 1  # a working set of independent constraints has at most n members
-    L, o = carve2(fw, 0, n, n)
-    Yw, o = carve2(fw, o, K, n)
-    Sm, o = carve2(fw, o, K, K)
-    Sf, o = carve2(fw, o, K, K)
-    vn, o = carve2(fw, o, 6, n)  # t0, y, w, zd, lam_b, rb
-    vk, o = carve2(fw, o, 4, K)  # tmp, r, bw, nuw
+    # two 2-D views in all (each reshape costs a call): L, Yw, then t0, y, w, zd, lam_b, rb by n columns; Sm, Sf,
+    # then tmp, r, bw, nuw by K columns
+    vn, o = carve2(fw, 0, n + K + 6, n)
+    vk, o = carve2(fw, o, 2 * K + 4, K)
     lam_r, o = carve(fw, o, p)
     sc, o = carve(fw, o, 1)
     out, o = carve(fw, o, 3)
-    space = DenseSpace(L, Yw, Sm, Sf, vn[0], vn[1], vn[2], vk[0], vk[1], vk[2], vk[3], iw[:K], iw[K:2 * K],
-                       iw[2 * K:3 * K], sc, rank_tol)
-    lam_b = vn[4]
+    e, f = n + K, 2 * K
+    space = DenseSpace(vn[:n], vn[n:e], vk[:K], vk[K:f], vn[e], vn[e + 1], vn[e + 2], vk[f], vk[f + 1], vk[f + 2],
+                       vk[f + 3], iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
+    lam_b = vn[e + 4]
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, vn[3], vn[5], out),
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, vn[e + 3], vn[e + 5], out),
                          ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
     eq_residual[0] = out[0]
     for i in range(n):

@@ -16,7 +16,6 @@ from wbc.compiled import once_per_process
 from wbc.solvers.active_set import solve_qp_ws
 from wbc.solvers.box_eq import solve_box_eq, solve_box_eq_ws
 from wbc.solvers.daqp import DaqpBackend
-from wbc.solvers.linalg import clip_box_into, weighted_normal_equations
 
 __all__ = ["FastBackend", "load_fast_kernels"]
 
@@ -159,8 +158,6 @@ def load_fast_kernels() -> float:
     s = np.zeros(2, np.int8)
     solve_box_eq((H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2)),
                  (s, np.empty(2), np.empty(1), np.empty(2), np.empty(1)), (10, 1e-12, 1e-12, 1e-24))
-    weighted_normal_equations(np.ones((1, 2)), np.ones(1), np.ones(1), 1e-6, np.empty((2, 2)), np.empty(2))
-    clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     b = FastBackend()
     b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
             np.ones(2))
