@@ -65,6 +65,7 @@ AFTER = {
     "wbc.formulations.idkernel": ("wbc.formulations.reference", "wbc.constraints.joint_acceleration_bounds",
                                   "wbc.solvers.active_set", "wbc.solvers.box_eq"),
     "wbc.sim.closed_loop": ("wbc.formulations.velocity_kernel",),
+    "wbc.controllers.inverse_dynamics": ("wbc.formulations.idkernel",),
 }
 
 #: Imports of a loader module's kernels that do not make the importer wait (:data:`AFTER`): the importer compiles
