@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from wbc.compiled import once_per_process
-from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
-from wbc.solvers.box_eq import solve_box_eq_ws
+from wbc.solvers.active_set import load_active_set_kernels, qp_ws_sizes, solve_qp_into
+from wbc.solvers.box_eq import load_box_eq_kernels, solve_box_eq_ws
 from wbc.solvers.daqp import DaqpBackend
 
 __all__ = ["FastBackend", "load_fast_kernels"]
@@ -136,13 +136,9 @@ class FastBackend(DaqpBackend):
 
 @once_per_process
 def load_fast_kernels() -> float:
-    """Compile (or load) the kernels :class:`FastBackend` calls, once per process; returns the seconds taken (later
-    calls: None)."""
+    """Compile (or load) the kernels :class:`FastBackend` calls (their modules' loaders: the same argument types),
+    once per process; returns the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
-    H = np.eye(2)
-    b = FastBackend()
-    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
-            np.ones(2))
-    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
-            np.ones(2))
+    load_active_set_kernels()
+    load_box_eq_kernels()
     return time.perf_counter() - t0
