@@ -1,6 +1,6 @@
 """The one Goldfarb–Idnani dual active set (:func:`wbc.solvers.active_set.dual_active_set`) on both of its
 working-set strategies — the dense range space (:class:`~wbc.solvers.active_set.DenseSpace`, through
-:func:`~wbc.solvers.active_set.solve_qp_ws`) and the block-diagonal one of the inverse-dynamics QP
+:func:`~wbc.solvers.active_set.solve_qp_into`) and the block-diagonal one of the inverse-dynamics QP
 (:class:`~wbc.solvers.active_set.BlockSpace`) — on the same block-structured QPs, against quadprog (via qpsolvers)
 and the KKT conditions."""
 
@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 import qpsolvers
 
+from conftest import dense_active_set
 from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, BlockSpace, QPLimits, QPWarmArrays,
-                                    dual_active_set, qp_ws_sizes, solve_qp_into, solve_qp_ws)
+                                    dual_active_set, qp_ws_sizes, solve_qp_into)
 from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
@@ -81,7 +82,8 @@ def test_both_strategies_give_the_exact_optimum(seed):
     # dense strategy on the same QP: the same optimum
     st, rst = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
     xd, nud, mud, zd, res = np.zeros(n), np.zeros(m), np.zeros(len(l)), np.zeros(n), np.zeros(1)
-    itd = solve_qp_ws((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res), (200, 1e-12, 1e-12, 1e-24))
+    itd = dense_active_set((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res),
+                           (200, 1e-12, 1e-12, 1e-24))
     assert itd > 0, itd
     assert np.abs(xd - ref).max() < 1e-8 * scale
     assert np.abs(xd - x).max() < 1e-8 * scale
@@ -137,7 +139,7 @@ def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
     assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max())
 
 
-def test_solve_qp_ws_takes_its_namedtuples_as_plain_tuples():
+def test_solve_qp_into_takes_its_namedtuples_as_plain_tuples():
     """QPData, QPWarmArrays and QPLimits, or plain tuples in their order (the fast backend's per-call entry): the same
     bits out."""
     rng = np.random.default_rng(9200)
@@ -148,7 +150,8 @@ def test_solve_qp_ws_takes_its_namedtuples_as_plain_tuples():
         arrays = QPWarmArrays(np.zeros(n, np.int8), np.zeros(p, np.int8), np.zeros(n), np.zeros(m), np.zeros(p),
                               np.zeros(n), np.zeros(1))
         limits = QPLimits(200, 1e-12, 1e-12, 1e-24)
-        it = solve_qp_ws(qp, arrays, limits) if named else solve_qp_ws(tuple(qp), tuple(arrays), tuple(limits))
+        it = dense_active_set(qp, arrays, limits) if named else dense_active_set(tuple(qp), tuple(arrays),
+                                                                                  tuple(limits))
         answers.append((it, *arrays))
     assert answers[0][0] > 0
     for a, b in zip(*answers):

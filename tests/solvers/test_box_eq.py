@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import dense_quadprog
+from conftest import box_eq, dense_quadprog
 from wbc.solvers.active_set import QPLimits
-from wbc.solvers.box_eq import BoxEqArrays, BoxEqSpace, solve_box_eq, solve_box_eq_ws
+from wbc.solvers.box_eq import BoxEqArrays, BoxEqSpace, solve_box_eq_ws
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -25,19 +25,19 @@ def test_box_eq_reaches_quadprogs_optimum(seed):
     b = A @ x0
     ref = dense_quadprog(H, g, A, b, np.zeros((0, n)), np.zeros(0), np.zeros(0), lb, ub)
     state, x, nu, z = np.zeros(n, np.int8), np.zeros(n), np.zeros(m), np.zeros(n)
-    it = solve_box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (100, 1e-12, 1e-12, 1e-24))
+    it = box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (100, 1e-12, 1e-12, 1e-24))
     assert it >= 0, it
     np.testing.assert_allclose(x, ref, atol=1e-8 * max(1.0, np.abs(ref).max()))
     assert (x >= lb).all() and (x <= ub).all()
     x2 = np.zeros(n)
     # warm: its own set
-    it2 = solve_box_eq((H, g, A, b, lb, ub), (state, x2, nu, z, np.empty(1)), (100, 1e-12, 1e-12, 1e-24))
+    it2 = box_eq((H, g, A, b, lb, ub), (state, x2, nu, z, np.empty(1)), (100, 1e-12, 1e-12, 1e-24))
     assert 0 <= it2 <= 1 and np.abs(x2 - x).max() < 1e-10 * max(1.0, np.abs(x).max())
 
 
 def test_solve_box_eq_ws_takes_its_namedtuples_as_plain_tuples():
     """BoxEqArrays, QPLimits and BoxEqSpace, or plain tuples in their order (the fast backend's per-call entry):
-    the same bits out, and those of the allocating solve_box_eq."""
+    the same bits out, and those of fresh workspaces."""
     rng = np.random.default_rng(4300)
     n, m = 9, 2
     M = rng.standard_normal((n, n))
@@ -55,7 +55,7 @@ def test_solve_box_eq_ws_takes_its_namedtuples_as_plain_tuples():
         elif form == "plain":
             it = solve_box_eq_ws(qp, tuple(arrays), tuple(limits), tuple(space))
         else:
-            it = solve_box_eq(qp, tuple(arrays), tuple(limits))
+            it = box_eq(qp, tuple(arrays), tuple(limits))
         answers.append((it, *arrays))
     assert answers[0][0] > 1 and (answers[0][1] != 0).any()  # bounds entered the working set
     for other in answers[1:]:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import qpsolvers
 
+from conftest import box_eq, dense_active_set
 from wbc.solvers import FastBackend, make_backend
-from wbc.solvers.box_eq import solve_box_eq
 
 
 def _random_qp(rng, n, m, box_scale):
@@ -32,7 +32,7 @@ def test_kernel_is_the_exact_optimum(seed):
     H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=float(rng.uniform(0.3, 2.0)))
     state = np.zeros(n, np.int8)
     x, nu, z = np.empty(n), np.zeros(m), np.zeros(n)
-    it = solve_box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
+    it = box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
     assert it > 0, it
     # KKT: stationarity, primal feasibility, dual sign, complementarity (thresholds set here)
     assert np.abs(H @ x + g + A.T @ nu + z).max() < 1e-9
@@ -52,7 +52,7 @@ def test_kernel_is_the_exact_optimum(seed):
         assert ref is not None
         assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max()), solver
     # warm start from the optimal set: one iteration
-    it2 = solve_box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
+    it2 = box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
     assert it2 == 1
 
 
@@ -132,7 +132,6 @@ def test_kernel_reports_infeasible_rows():
     """Two rows that cannot both hold (c·x ≥ 1 and the same c·x ≤ 0): the dual active set stops with INFEASIBLE,
     and the backend, after DAQP and the independent solvers, raises SolverError."""
     from wbc.exceptions import SolverError
-    from wbc.solvers.active_set import solve_qp_ws
     from wbc.solvers.status import INFEASIBLE
 
     n = 5
@@ -143,8 +142,8 @@ def test_kernel_reports_infeasible_rows():
     lb, ub = -np.ones(n), np.ones(n)
     A, b = np.zeros((0, n)), np.zeros(0)
     state, rstate = np.zeros(n, np.int8), np.zeros(2, np.int8)
-    it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub), (state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
-                                                     np.zeros(n), np.zeros(1)), (100, 1e-12, 1e-12, 1e-24))
+    it = dense_active_set((H, g, A, b, C, l, u, lb, ub), (state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
+                                                          np.zeros(n), np.zeros(1)), (100, 1e-12, 1e-12, 1e-24))
     assert it == INFEASIBLE
     with pytest.raises(SolverError):
         FastBackend().solve(H, g, A, b, C, l, u, lb, ub)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.solvers.active_set import solve_qp_ws
+from conftest import dense_active_set
 from wbc.solvers.status import INFEASIBLE, NOT_POSITIVE_DEFINITE, SolverStatus
 
 
@@ -14,9 +14,9 @@ def _solve(H, lb, ub, row_max=np.inf):
     n = H.shape[0]
     x, z = np.zeros(n), np.zeros(n)
     A, C = np.zeros((0, n)), np.eye(1, n)
-    return solve_qp_ws((H, np.ones(n), A, np.zeros(0), C, np.array([-np.inf]), np.array([row_max]), lb, ub),
-                       (np.zeros(n, np.int8), np.zeros(1, np.int8), x, np.zeros(0), np.zeros(1), z, np.zeros(1)),
-                       (50, 1e-12, 1e-12, 1e-24))
+    return dense_active_set((H, np.ones(n), A, np.zeros(0), C, np.array([-np.inf]), np.array([row_max]), lb, ub),
+                            (np.zeros(n, np.int8), np.zeros(1, np.int8), x, np.zeros(0), np.zeros(1), z, np.zeros(1)),
+                            (50, 1e-12, 1e-12, 1e-24))
 
 
 def test_codes_are_distinct_and_negative():

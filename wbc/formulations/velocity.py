@@ -15,10 +15,8 @@ keep their rows √w J, √w v* apart (:func:`wbc.formulations.velocity_kernel.w
 cascade of :mod:`wbc.solvers.hierarchy`. The next configuration is q⁺ = pin.integrate(q, v dt).
 
 :meth:`VelocityQP.assemble` writes (H, g, A, b, C, l, u, lb, ub) into preallocated buffers, one set per constraint
-layout; every route of the tick solves those very arrays (the compiled kernel reads them, never writes them). A
-task's ``weight`` becomes a view of the stacked weights on its first assembly. The solution is v itself (no
-decoding). What the controller does around this QP (contact hold, relaxations, budget, safe command, compiled
-tick) is in :mod:`wbc.controllers.kinematic` and ``docs/kinematic-controller.md``."""
+layout, which every route of the tick solves. What the controller does around this QP (contact hold, relaxations,
+budget, safe command, compiled tick) is in :mod:`wbc.controllers.kinematic` and ``docs/kinematic-controller.md``."""
 
 from __future__ import annotations
 
@@ -58,10 +56,9 @@ def row_blocks(constraints) -> tuple[list, int]:
 
 
 class VelocityQP:
-    """The kinematic QP of the module docstring: its row layouts and buffers (per constraint list and per soft-task
-    list, each cached) and their assembly (:meth:`assemble`). The controller
-    (:class:`wbc.controllers.kinematic.KinematicController`, which derives from it) owns the task and constraint
-    lists, the robot and ``damping``."""
+    """The kinematic QP of the module docstring: its row layouts and buffers (cached per constraint list and per
+    soft-task list) and their assembly (:meth:`assemble`). :class:`wbc.controllers.kinematic.KinematicController`
+    derives from it and owns the task and constraint lists, the robot and ``damping``."""
 
     #: counted solves added to a tick that builds a new row layout: the build and the tick's first solves on fresh
     #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)

@@ -119,13 +119,9 @@ def _weighted_row(Js, es, rowp, k, row):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def weighted_rows(Js, es, rowp, out_J, out_r):
-    """The stacked task rows with their weights applied, as a strict priority level takes them
-    (:func:`wbc.solvers.hierarchy.solve_lexicographic`): out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k, v*_k = ff_k −
-    K_k e_k (the formula of :func:`form_qp`).
-
-    Args:
-        Js (mt, nv), es (mt,), rowp (3, mt): as :func:`form_qp`. out_J (mt, nv), out_r (mt,): out.
-    """
+    """out_J[k] = √w_k J_k, out_r[k] = √w_k v*_k (:func:`_weighted_row`) of each stacked task row, as a strict
+    priority level takes them (:func:`wbc.solvers.hierarchy.solve_lexicographic`). Js (mt, nv), es (mt,), rowp (3, mt):
+    as :func:`form_qp`; out_J (mt, nv), out_r (mt,): out."""
     for k in range(Js.shape[0]):
         out_r[k] = _weighted_row(Js, es, rowp, k, out_J[k])
 
@@ -188,16 +184,15 @@ def form_qp(sfb, sib, diff, pgain, damping, H, g):
 
 @nb.njit(cache=True, nogil=True)
 def _views_size(n, nr, mr, p):
-    """Length of the part of the float workspace that :func:`_solve_views` lays out."""
+    """Length of the float workspace that :func:`_solve_views` lays out."""
     return (n + 2 * nr * nr + 6 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
             + mr * nr + mr * mr + mr + 1)
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(qp, er, ws):
-    """Views of :func:`kinematic_solve`'s float workspace ``ws`` (of :func:`kinematic_pack`) for ``qp`` and ``er``:
-    the reduced QP (a plain tuple in :class:`KinematicQP`'s order), L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs,
-    eqres and the solver's workspace (the rest of ``ws``)."""
+    """Views of :func:`kinematic_solve`'s float workspace ``ws``: the reduced QP (a plain tuple in
+    :class:`KinematicQP`'s order), L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs, eqres and the solver's workspace."""
     n0 = 6 if er >= 0 else 0
     n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
     nr = n - n0
@@ -223,13 +218,7 @@ def _solve_views(qp, er, ws):
 def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
     """Hr = Zᵀ H Z and gr = Zᵀ (g + H v₀) for v = Z v_j + v₀, Z = [−T; I], v₀ = [c; 0] (the base's v_b = c − T v_j):
     Hr = H_jj − H_jb T − Tᵀ V with V = H_bj − H_bb T, gr = (g_j + H_jb c) − Tᵀ (g_b + H_bb c); the lower triangle
-    formed, mirrored (Hr exactly symmetric). n0 = 0: a copy."""
-    if n0 == 0:
-        for a in range(nr):
-            gr[a] = g[a]
-            for c in range(nr):
-                Hr[a, c] = H[a, c]
-        return
+    formed, mirrored (Hr exactly symmetric). n0 = 0: a copy (H symmetric)."""
     for b in range(n0):
         Vb = V[b]
         Hb = H[b]
@@ -266,17 +255,13 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
-    """The exact optimum of the assembled kinematic QP (:class:`KinematicQP`) with the floating base eliminated
-    (the arguments are read, never written).
-
-    Floating-base elimination (``er`` ≥ 0): the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, whose
-    base block E_b is invertible) give v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), so the problem is solved exactly
-    in the nv − 6 joint velocities with the remaining equality rows (a null-space / variable-elimination method;
-    Nocedal & Wright, *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14 with the basis columns the base's): H and
-    g reduced by the substitution (:func:`_reduce_cost`), the other rows of A and C likewise. The base must be
-    unbounded (else ``NOT_REDUCIBLE``). The reduced QP is solved by :func:`solve_box_eq_ws` (no inequality rows) or
-    :func:`~wbc.solvers.active_set.solve_qp_ws`, warm-started from ``state``/``rstate``; every KKT condition of
-    the reduced problem holds at exit, and the residuals of all rows of the original one are checked against
+    """The exact optimum of the assembled kinematic QP (:class:`KinematicQP`, read, never written) with the floating
+    base eliminated: the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, E_b invertible) give
+    v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), and the QP is solved exactly in the nv − 6 joint velocities with
+    the other rows, H, g (:func:`_reduce_cost`), A and C substituted (variable elimination: Nocedal & Wright,
+    *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14). The base must be unbounded (else ``NOT_REDUCIBLE``). The
+    reduced QP goes to :func:`solve_box_eq_ws` (no rows C) or :func:`~wbc.solvers.active_set.solve_qp_into`,
+    warm-started from ``state``/``rstate``; the residuals of the original rows are then checked against
     ``tolerance``.
 
     Args:
@@ -326,16 +311,13 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         it = solve_box_eq_ws((Hr, gr, Ar, br, lbr, ubr), (state, x, nu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24),
                              (iws[:nr], L, Y, S, t, rhs))
     else:
-        # plain tuples, the types of the fast backend's call (solve_qp_ws): one compiled version of solve_qp_into
+        # plain tuples, the types of the fast backend's call: one compiled version of solve_qp_into
         it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
+    if it >= 1 and not _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
+        it = RESIDUAL
     if it < 1:
         state[:] = 0
         rstate[:] = 0
-        return it
-    if not _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
-        state[:] = 0
-        rstate[:] = 0
-        return RESIDUAL
     return it
 
 
@@ -461,9 +443,8 @@ def kinematic_reduced_packed(fb, ib):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
-    """Complete a :func:`kinematic_solve` whose solver gave up, from a solution x (nr,) of
-    :func:`kinematic_reduced_packed` found by another solver: v (nv,) (out; the base velocity recovered through the
-    eliminating rows) and the check of every original row against ``tolerance`` (True: passed, ws[:nv] = v·dt)."""
+    """Complete a :func:`kinematic_solve` whose solver gave up from another solver's solution x (nr,) of
+    :func:`kinematic_reduced_packed`: v (nv,) (out) and the check of :func:`_finish` (True: passed, ws[:nv] = v·dt)."""
     qp, _, ws, _, er = kinematic_views(fb, ib)
     return _finish(qp, _solve_views(qp, er, ws)[5], x, 6 if er >= 0 else 0, dt, tolerance, ws, v)
 
@@ -563,10 +544,9 @@ def command_within(v, lb, ub, C, l, u, tolerance):
 
 @once_per_process
 def load_kinematic_parts() -> float:
-    """Compile (or load from the on-disk cache), once per process, the kinematic kernels that link no solver kernel
-    (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.box_eq`), and :func:`wbc.solvers.linalg.clip_box_into`;
-    returns the seconds taken (later calls: None at once). ``wbc compile`` runs it in a process of its own while the
-    solver kernels compile (:data:`wbc.cli.kernels.PARTS`)."""
+    """Compile (or load), once per process, the kinematic kernels that link no solver kernel, and
+    :func:`wbc.solvers.linalg.clip_box_into` (``wbc compile`` runs it beside the solvers':
+    :data:`wbc.cli.kernels.PARTS`); returns the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
     clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     fb, ib = kinematic_pack(7, 6, 0, 0)
@@ -591,9 +571,8 @@ def load_kinematic_parts() -> float:
 
 @once_per_process
 def load_kinematic_kernels() -> float:
-    """:func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed` (which links
-    :func:`kinematic_solve` and the solver kernels), compiled or loaded once per process; returns the seconds taken
-    (later calls: None at once)."""
+    """:func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed`, once per process; returns
+    the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
     load_kinematic_parts()
     # the kinematic controller's compiled tick (a 7-velocity QP whose base is eliminated through 6 rows)

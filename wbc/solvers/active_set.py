@@ -5,7 +5,7 @@ warm-started from the previous call's working set. The iteration is written once
 set is a strategy chosen by the type of the ``space`` argument (numba compiles one specialisation per type):
 
 * :class:`DenseSpace` — any positive definite H: H = L Lᵀ once per call, the working set's normals N kept through
-  Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_ws` (the kinematic tick, ``FastBackend``).
+  Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_into` (the kinematic tick, ``FastBackend``).
 * :class:`BlockSpace` — H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP): held bounds eliminated,
   L Lᵀ = H_vv on the free accelerations, D⁻¹ on the free forces, the Schur complement of the working rows
   (:mod:`wbc.solvers.active_set_block`, :func:`wbc.solvers.compiled_id.id_solve`).
@@ -33,8 +33,7 @@ from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP,
                                 NOT_VERIFIED)
 
 __all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "QPLimits", "QPWarmArrays",
-           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into",
-           "solve_qp_ws"]
+           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into"]
 
 #: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
 #: matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r, bw, nuw (K,); kind (0 equality, 1 row of C,
@@ -50,7 +49,7 @@ BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c t
 ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
 ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
                                                     "refresh start_cost verify_tol")
-#: the arrays and limits of :func:`solve_qp_ws` (its Args); a plain tuple in their order is
+#: the arrays and limits of :func:`solve_qp_into` (its Args); a plain tuple in their order is
 #: taken as well (numba types it faster than a namedtuple: the ``fast`` backend passes one)
 QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
 QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
@@ -556,8 +555,9 @@ def qp_ws_sizes(n, m, p):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_ws(qp, arrays, limits):
-    """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest).
+def solve_qp_into(qp, arrays, limits, fw, iw):
+    """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest)
+    in the caller's workspaces: no allocation (a kernel compiled without numba's runtime may call it).
 
     Args:
         qp: a :class:`~wbc.solvers.qp_data.QPData` (n variables, m equality rows, p rows of C).
@@ -567,18 +567,11 @@ def solve_qp_ws(qp, arrays, limits):
             exit code other than NOT_VERIFIED).
         limits: a :data:`QPLimits`: max_iter (drops and GI steps), primal_tol, dual_tol, rank_tol (relative pivot of
             S² below which W counts as dependent).
+        fw, iw: float64 and int64 workspaces, at least :func:`qp_ws_sizes` (n, m, p) long.
 
     Returns:
         steps (≥ 1) on success, x inside [lb, ub] exactly; or a negative exit code.
     """
-    fsize, isize = qp_ws_sizes(qp[0].shape[0], qp[2].shape[0], qp[4].shape[0])
-    return solve_qp_into(qp, arrays, limits, np.empty(fsize), np.empty(isize, np.int64))
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_into(qp, arrays, limits, fw, iw):
-    """:func:`solve_qp_ws` in the caller's float64 and int64 workspaces fw, iw (at least :func:`qp_ws_sizes`
-    (n, m, p) long): no allocation (a kernel compiled without numba's runtime may call it)."""
     H, g, A, b, C, l, u, lb, ub = qp
     state, rstate, x, nu, mu, z, eq_residual = arrays
     max_iter, primal_tol, dual_tol, rank_tol = limits

@@ -1,8 +1,7 @@
 """Compiled (numba) exact solver of the QP of :mod:`wbc.solvers.qp_data` without rows C (H positive definite, A full
-row rank), warm-started from the previous call's working set (the variables held at a bound): :func:`solve_box_eq_ws`
-(workspace given) and :func:`solve_box_eq` (allocating). Each tuple argument may be a plain tuple in its namedtuple's
-order (numba types a plain tuple of arrays faster than a namedtuple; compiled callers pass them too, to link the one
-compiled version).
+row rank), warm-started from the previous call's working set (the variables held at a bound): :func:`solve_box_eq_ws`.
+Each tuple argument may be a plain tuple in its namedtuple's order (numba types a plain tuple of arrays faster than a
+namedtuple; compiled callers pass them too, to link the one compiled version).
 
 For a working set W the free part F solves the equality-constrained QP by the range-space method (Nocedal & Wright,
 *Numerical Optimization*, 2nd ed., §16.2: L Lᵀ = H_FF, S = A_F H_FF⁻¹ A_Fᵀ), refined once on the equality rows. Then
@@ -25,21 +24,13 @@ from wbc.solvers.linalg import (backward_substitution, cholesky_lower, equality_
 from wbc.solvers.status import DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE
 
 __all__ = ["BoxEqArrays", "BoxEqSpace", "clip_eq_residual", "drop_infinite_active", "load_box_eq_kernels",
-           "solve_box_eq", "solve_box_eq_ws"]
+           "solve_box_eq_ws"]
 
 #: the arrays of :func:`solve_box_eq_ws` (:func:`solve_box_eq_ws`'s Args)
 BoxEqArrays = namedtuple("BoxEqArrays", "state x nu z eq_residual")
 #: the workspace of :func:`solve_box_eq_ws`: free (n,) int64 (the free variables, then the fixed ones from the end);
 #: L (n, n) the factor of H_FF; Y (m, n) = L⁻¹A_Fᵀ by row; S (m, m) the Schur complement's factor; t (n,), rhs (m,)
 BoxEqSpace = namedtuple("BoxEqSpace", "free L Y S t rhs")
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_box_eq(qp, arrays, limits):
-    """Allocating form of :func:`solve_box_eq_ws` (same arguments, no workspace)."""
-    n, m = qp[0].shape[0], qp[2].shape[0]
-    return solve_box_eq_ws(qp, arrays, limits, (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)),
-                                                np.empty((m, m)), np.empty(n), np.empty(m)))
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)

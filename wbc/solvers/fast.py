@@ -1,7 +1,7 @@
 """The compiled exact backend, ``fast``: :class:`FastBackend`, the in-house active-set kernels with DAQP as fallback.
 
 A QP without rows C goes to :func:`wbc.solvers.box_eq.solve_box_eq_ws`, one with them to
-:func:`wbc.solvers.active_set.solve_qp_ws`, each warm-started. Either ends only at a KKT point (the exact optimum);
+:func:`wbc.solvers.active_set.solve_qp_into`, each warm-started. Either ends only at a KKT point (the exact optimum);
 a call that does not (iteration cap, H not positive definite, dependent equalities) goes to the
 :class:`~wbc.solvers.daqp.DaqpBackend` it extends.
 """
@@ -13,16 +13,15 @@ import time
 import numpy as np
 
 from wbc.compiled import once_per_process
-from wbc.solvers.active_set import solve_qp_ws
-from wbc.solvers.box_eq import solve_box_eq, solve_box_eq_ws
+from wbc.solvers.active_set import load_active_set_kernels, qp_ws_sizes, solve_qp_into
+from wbc.solvers.box_eq import load_box_eq_kernels, solve_box_eq_ws
 from wbc.solvers.daqp import DaqpBackend
 
 __all__ = ["FastBackend", "load_fast_kernels"]
 
 
 class FastBackend(DaqpBackend):
-    """The compiled kernels of the module docstring, DAQP (the :class:`~wbc.solvers.daqp.DaqpBackend` it extends)
-    for every call they do not answer.
+    """The compiled kernels of the module docstring, then DAQP for every call they do not answer.
 
     Args:
         tolerance: largest constraint violation accepted (constraint units).
@@ -47,9 +46,8 @@ class FastBackend(DaqpBackend):
         super().__init__(tolerance=tolerance, **settings)
         self.max_iter = int(max_iter)
         self.kernel_rows = bool(kernel_rows)
-        self._n = -1
-        self._m = -1
-        self._p = -1
+        self._n = self._p = -1  # variables and rows of the kernel's working sets
+        self._eq_residual = np.empty(1)
         self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
@@ -60,41 +58,32 @@ class FastBackend(DaqpBackend):
         self._gave_up: tuple | None = None  # (the tick's work, its tick, the problem's shape) of the last give-up
         load_fast_kernels()  # compile / load the kernel here, once per process, not inside a controller's first tick
 
-    def _prepare_kernel(self, n: int, m: int) -> None:
-        if n != self._n:  # the working set concerns the bounds only: kept when the equality rows change
-            self._state = np.zeros(n, np.int8)
-            self._x = np.empty(n)
-            self._z = np.zeros(n)
-            self._ws_by_m: dict = {}  # workspaces per number of equality rows (a support switch revisits a few)
-            self._p = -1
-        self._n, self._m = n, m
-        cached = self._ws_by_m.get(m)
-        if cached is None:
-            nu, eq_residual = np.zeros(m), np.empty(1)
-            # the box/equality kernel's BoxEqArrays and BoxEqSpace as plain tuples, built once per shape
-            cached = self._ws_by_m[m] = (nu, eq_residual, (self._state, self._x, nu, self._z, eq_residual), (
-                np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
-                np.empty(m)))
-        self._nu, self._eq_residual, self._box_arrays, self._box_space = cached
-
     def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
         """One warm-started kernel call; True when it ended at a KKT point within ``tolerance`` (x in ``self._x``),
-        else its working sets are cleared."""
+        else its working sets are cleared. The bounds' working set is kept while n stays, the rows' while n and p
+        stay (a call without rows keeps it); the workspaces are kept per shape (a support switch revisits a few)."""
         n, m, p = H.shape[0], A.shape[0], C.shape[0]
-        if n != self._n or m != self._m:
-            self._prepare_kernel(n, m)
+        if n != self._n:
+            self._n, self._p, self._ws = n, -1, {}
+            self._state, self._x, self._z = np.zeros(n, np.int8), np.empty(n), np.zeros(n)
+        if p and p != self._p:
+            self._p, self._rstate, self._mu = p, np.zeros(p, np.int8), np.zeros(p)
+        ws = self._ws.get((m, p))
+        if ws is None:
+            fsize, isize = qp_ws_sizes(n, m, p)
+            ws = self._ws[m, p] = (np.zeros(m), (np.empty(fsize), np.empty(isize, np.int64)) if p else (
+                np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
+                np.empty(m)))
+        self._nu, space = ws
+        limits = (self.max_iter, 1e-12, 1e-12, 1e-24)
+        # plain tuples (QPData, QPWarmArrays, QPLimits, BoxEqSpace): numba types them faster (4.3 µs a call,
+        # namedtuples 9.7 µs)
         if p:
-            if p != self._p:  # the rows' working set is kept when only the equality rows changed
-                self._p = p
-                self._rstate = np.zeros(p, np.int8)
-                self._mu = np.zeros(p)
-            # plain tuples (QPData, QPWarmArrays, QPLimits): numba types them faster (4.3 µs a call, namedtuples 9.7 µs)
-            it = solve_qp_ws((H, g, A, b, C, l, u, lb, ub),
-                             (self._state, self._rstate, self._x, self._nu, self._mu, self._z, self._eq_residual),
-                             (self.max_iter, 1e-12, 1e-12, 1e-24))
+            it = solve_qp_into((H, g, A, b, C, l, u, lb, ub), (self._state, self._rstate, self._x, self._nu, self._mu,
+                                                               self._z, self._eq_residual), limits, *space)
         else:
-            it = solve_box_eq_ws((H, g, A, b, lb, ub), self._box_arrays, (self.max_iter, 1e-12, 1e-12, 1e-24),
-                                 self._box_space)
+            it = solve_box_eq_ws((H, g, A, b, lb, ub), (self._state, self._x, self._nu, self._z, self._eq_residual),
+                                 limits, space)
         self.last_kernel_iterations = it
         if it > 0 and self._eq_residual[0] <= self.tolerance:
             self.kernel_solves += 1
@@ -105,8 +94,8 @@ class FastBackend(DaqpBackend):
         return False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
-        """As :meth:`wbc.solvers.base.QPBackend.solve`; a kernel solution (a KKT point inside the bounds, its residual
-        checked against ``tolerance``) is returned as is, anything else goes through DAQP and the general check.
+        """As :meth:`wbc.solvers.base.QPBackend.solve`: a kernel solution (its residual within ``tolerance``) as is,
+        else DAQP's, through the general check.
 
         Raises:
             SolverError: the DAQP fallback failed.
@@ -137,30 +126,19 @@ class FastBackend(DaqpBackend):
         self.fallbacks += 1
         x = super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
         if H.shape[0] == self._n:
-            # warm start the kernel's next call from the bounds (and rows) DAQP found active
-            self._state[:] = 0
-            self._state[x <= lb + 1e-12] = -1
-            self._state[x >= ub - 1e-12] = 1
+            # warm start the kernel's next call from the bounds (and rows) DAQP found active (upper side first)
+            self._state[:] = np.where(x >= ub - 1e-12, 1, np.where(x <= lb + 1e-12, -1, 0))
             if p and self._p == p:
                 cx = C @ x
-                self._rstate[:] = 0
-                self._rstate[cx <= l + 1e-12] = -1
-                self._rstate[cx >= u - 1e-12] = 1
+                self._rstate[:] = np.where(cx >= u - 1e-12, 1, np.where(cx <= l + 1e-12, -1, 0))
         return x
 
 
 @once_per_process
 def load_fast_kernels() -> float:
-    """Compile (or load) the kernels :class:`FastBackend` calls, once per process; returns the seconds taken (later
-    calls: None)."""
+    """Compile (or load) the kernels :class:`FastBackend` calls (their modules' loaders: the same argument types),
+    once per process; returns the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
-    H = np.eye(2)
-    s = np.zeros(2, np.int8)
-    solve_box_eq((H, np.ones(2), np.ones((1, 2)), np.ones(1), -np.ones(2), np.ones(2)),
-                 (s, np.empty(2), np.empty(1), np.empty(2), np.empty(1)), (10, 1e-12, 1e-12, 1e-24))
-    b = FastBackend()
-    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.ones((1, 2)), -np.ones(1), np.ones(1), -np.ones(2),
-            np.ones(2))
-    b.solve(H, np.ones(2), np.ones((1, 2)), np.ones(1), np.zeros((0, 2)), np.zeros(0), np.zeros(0), -np.ones(2),
-            np.ones(2))
+    load_active_set_kernels()
+    load_box_eq_kernels()
     return time.perf_counter() - t0
