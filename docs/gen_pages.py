@@ -52,7 +52,7 @@ with mkdocs_gen_files.open("reference/cli.md", "w") as f:
 #: (title, module prefixes) in the order of docs/architecture.md's layers
 LAYERS = [
     ("Package root", ["wbc"]),
-    ("Errors, constants, compiled kernels", ["wbc.exceptions", "wbc.constants", "wbc.compiled"]),
+    ("Errors, constants, compiled kernels", ["wbc.exceptions", "wbc.constants", "wbc.compiled", "wbc.kernel_cache"]),
     ("Geometry, Lie groups, profiles, terrain, solvers",
      ["wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"]),
     ("Robot, kinematics", ["wbc.robot", "wbc.robot_checks", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"]),

@@ -19,6 +19,12 @@ if TYPE_CHECKING:  # the names below are imported on first use (PEP 562): `impor
 __all__ = ["Configuration", "KinematicController", "Robot", "catalog", "load_robot", "solve_ik"]
 __version__ = "0.1.0"
 
+# numba does not see a change in a file that a cached kernel calls into: drop wbc's kernel caches when any kernel
+# source changed (wbc.kernel_cache; about 1 ms when none did).
+from wbc.kernel_cache import drop_stale_caches  # noqa: E402
+
+drop_stale_caches()
+
 # Loading these modules loads (or, on the first run after an install, compiles) wbc's numba kernels: seconds to a
 # minute. Deferring them lets `wbc ...` say so and handle Ctrl-C before that work starts.
 _LAZY = {"Configuration": "wbc.configuration", "KinematicController": "wbc.controllers.kinematic",

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2] / "wbc"
 
 # Lowest first. A module belongs to the layer of its longest matching prefix.
 LAYERS: list[tuple[str, ...]] = [
-    ("wbc.exceptions", "wbc.compiled", "wbc.constants", "wbc.tick"),
+    ("wbc.exceptions", "wbc.compiled", "wbc.kernel_cache", "wbc.constants", "wbc.tick"),
     ("wbc.geometry", "wbc.lie", "wbc.profiles", "wbc.terrain", "wbc.solvers"),
     ("wbc.robot", "wbc.robot_checks", "wbc.robot_file", "wbc.robot_inspect", "wbc.configuration", "wbc.state"),
     ("wbc.tasks", "wbc.constraints", "wbc.estimation"),

@@ -318,29 +318,17 @@ def uncompiled_kernels(modules=None) -> list[str]:
     no on-disk numba cache yet (no ``<module>.*.nbi`` in ``__pycache__`` next to the source, or in numba's folder for
     that source under ``NUMBA_CACHE_DIR`` when that variable moves the cache): their kernels compile on first use,
     30–80 s on a 2-core machine."""
-    import re
-
     import wbc
+    from wbc.kernel_cache import cache_folder, kernel_sources
 
     cache_dir = os.environ.get("NUMBA_CACHE_DIR")
-    if cache_dir:
-        from numba.core.caching import UserProvidedCacheLocator
     root = Path(wbc.__file__).resolve().parent
     if modules is None:
-        decorated = re.compile(r"@(?:nb\.|numba\.)?n?jit\([^)]*cache=True")
-        modules = []
-        for path in sorted(root.rglob("*.py")):
-            try:
-                if decorated.search(path.read_text(encoding="utf-8")):
-                    modules.append(".".join(path.relative_to(root.parent).with_suffix("").parts))
-            except OSError:
-                continue
+        modules = [".".join(p.relative_to(root.parent).with_suffix("").parts) for p in kernel_sources(root)]
     missing = []
     for name in modules:
         path = root.parent.joinpath(*name.split(".")).with_suffix(".py")
-        where = path.parent / "__pycache__" if not cache_dir else \
-            Path(cache_dir) / UserProvidedCacheLocator.get_suitable_cache_subpath(str(path))
-        if path.is_file() and not any(where.glob(f"{path.stem}.*.nbi")):
+        if path.is_file() and not any(cache_folder(path, cache_dir).glob(f"{path.stem}.*.nbi")):
             missing.append(name)
     return missing
 
