@@ -210,15 +210,14 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.tick_budget.seconds = math.nan
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
-    def _start_work(self, budget_s: float, plan=None) -> None:
+    def _start_work(self, budget_s: float) -> None:
         """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers:
         class or instance attributes, they may change between ticks) and share its work with every QP backend."""
         tb = self.tick_budget
         tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
         tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
-        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                 None if plan is None else plan.rescue)
+        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend)
         if self._level_backends:
             stamp += tuple(self._level_backends)
         # written only when the backends changed since the last tick that wrote them, or when that tick (or a
@@ -340,7 +339,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._cut = []
-        self._start_work(dt if self._budget is None else self._budget, self._fused)
+        self._start_work(dt if self._budget is None else self._budget)
         result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
         if result is not None:
             return result
