@@ -18,7 +18,6 @@ import pinocchio as pin
 
 from wbc.compiled import specialise
 from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
-from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.controllers.output_guard import command_fault
@@ -26,7 +25,6 @@ from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, contac
                                               kinematic_tick_packed, kinematic_views)
 from wbc.solvers import FastBackend
 from wbc.solvers.hierarchy import independent_rows
-from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult, solved_result
 
 
@@ -62,13 +60,9 @@ class CompiledTick:
         try:
             for tasks, constraints in arrangements:
                 for t in tasks:
-                    if not isinstance(t, Task):
-                        raise InvalidInputError(f"expected a wbc Task, got {type(t).__name__}")
-                    self.robot_check.check(t, "task")
+                    self._check_input(t)
                 for c in constraints:
-                    if not isinstance(c, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
-                        raise InvalidInputError(f"expected a velocity-level wbc Constraint, got {type(c).__name__}")
-                    self.robot_check.check(c, "constraint")
+                    self._check_input(c, task=False)
                 self.tasks[:], self.constraints[:] = tasks, constraints
                 key = tuple((id(c), c.dim) for c in self.constraints)
                 if key != self._layout_key or not self._layout_ok:

@@ -134,10 +134,7 @@ class GeneralRoute:
                 # the cascade does not fit the tick (its count, or the clock guard's CPU time); the weighted form of
                 # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
                 # re-solves instead of the last solved level's command (which ignores the levels below it)
-                self._work.reserve = 0.0
-                budget = self.tick_budget  # the tick's re-solves from here: the weighted form's
-                budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
-                budget.resolves = 0
+                self.tick_budget.restart_resolves()
                 self._weighted_from = (self._work.solves, self._work.seconds() if self.clock_guard else 0.0)
                 try:
                     qp = self._weighted_levels(config, H, g)

@@ -242,9 +242,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             InvalidInputError: not a Task, a negative/non-integer level, both ``level`` and ``hard``, or a task
                 built for another robot (other model, frame ids or nv).
         """
-        if not isinstance(task, Task):
-            raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        self.robot_check.check(task, "task")
+        self._check_input(task)
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -301,17 +299,23 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                   or not 0 <= index <= len(self.constraints)):
             raise InvalidInputError(f"constraint index must be an integer in [0, {len(self.constraints)}], "
                                     f"got {index!r}")
-        if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
-            if isinstance(constraint, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
-                raise InvalidInputError(
-                    f"{type(constraint).__name__} {constraint.name!r} is a constraint of the {constraint.level} level; "
-                    f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
-                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
-            raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
-        self.robot_check.check(constraint, "constraint")
+        self._check_input(constraint, task=False)
         self.constraints.insert(len(self.constraints) if index is None else int(index), constraint)
         self._eq_rows, self._layout_ok = None, False
         return constraint
+
+    def _check_input(self, obj, task: bool = True) -> None:
+        """Raise InvalidInputError unless ``obj`` is a Task (``task``) or a velocity-level constraint of this robot."""
+        if task and not isinstance(obj, Task):
+            raise InvalidInputError(f"expected a wbc Task, got {type(obj).__name__}")
+        if not task and not isinstance(obj, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+            if isinstance(obj, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
+                raise InvalidInputError(
+                    f"{type(obj).__name__} {obj.name!r} is a constraint of the {obj.level} level; a "
+                    f"KinematicController takes velocity-level constraints (EqualityConstraint, "
+                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
+            raise InvalidInputError(f"expected a wbc Constraint, got {type(obj).__name__}")
+        self.robot_check.check(obj, "task" if task else "constraint")
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.

@@ -173,11 +173,7 @@ class Relaxation:
         drifts too or fails: the cascade's failure stands."""
         if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             return None
-        self._work.reserve = 0.0
-        # its re-solves are the weighted form's (one QP), not the cascade's: their work and time counted from here
-        budget = self.tick_budget
-        budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
-        budget.resolves = 0
+        self.tick_budget.restart_resolves()
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
         v = self._try_solve(config)
