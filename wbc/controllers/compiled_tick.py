@@ -1,11 +1,7 @@
-"""The compiled tick of the kinematic controller: the assembled flat QP solved by one compiled call.
-
-With the default backend (``solver="fast"``) and no strict level, the QP that
-:meth:`wbc.formulations.velocity.VelocityQP.assemble` writes is solved by
-:func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base eliminated through the first contact's
-6 equality rows (a solver strategy, the QP is not changed) and the exact optimum of an active set warm-started
-from the previous tick. Whenever the kernel gives up or ends off a KKT point, a contact drifts above
-``contact_correction`` or anything raises, the tick is solved again by the general path
+"""The compiled tick of the kinematic controller: with the default backend (``solver="fast"``) and no strict level,
+the assembled flat QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`) solved by one compiled call,
+:func:`wbc.formulations.velocity_kernel.kinematic_solve`. Whenever the kernel gives up or ends off a KKT point, a
+contact drifts above ``contact_correction`` or anything raises, the general path solves the tick
 (``docs/kinematic-controller.md``)."""
 
 from __future__ import annotations
@@ -38,10 +34,8 @@ class CompiledTick:
 
     def prepare_layouts(self, arrangements, config: Configuration, dt: float) -> None:
         """Build ahead, outside the ticks, what the first tick of each arrangement of tasks and constraints would
-        build (row layout and buffers, the soft tasks' stacked rows, the compiled tick's plan, box and specialised
-        kernel), for a later tick whose tasks and constraints are one of them (the same objects in the same order;
-        e.g. the support phases of a walk plan). The controller's own tasks, constraints and rank decision and the
-        answers of the ticks are unchanged.
+        build (row layout, buffers, compiled plan and kernel; e.g. for the support phases of a walk plan). The
+        controller's own tasks, constraints and rank decision and the answers of the ticks are unchanged.
 
         Args:
             arrangements: iterable of (tasks, constraints) lists, each a list of the controller's own task and

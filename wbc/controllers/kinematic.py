@@ -58,24 +58,19 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
-        contact_correction: drift (m) of a contact frame over the tick above which the contact rows' right-hand
-            sides are corrected by the measured drift and the tick solved again (:mod:`wbc.controllers.contact_hold`;
-            ≤ 3 Newton steps on e⁺(v) = (1 − K dt) e: only the contact targets move); default 1e-6, 0 = off.
-        sole_drift_tolerance: largest contact-frame drift per tick (m, default 5e-5) of an ok tick, enforced by up to
-            8 trust regions |v_i| ≤ ρ (each ρ the last one's times clip(0.8 · tolerance / its drift, 1/16, 1/2),
-            starting from max|v|), else the tick is not ok; None: measured (``TickResult.sole_drift``), not enforced.
+        contact_correction: drift (m) of a contact frame over the tick above which the tick is solved again with its
+            contact rows corrected (:mod:`wbc.controllers.contact_hold`); default 1e-6, 0 = off.
+        sole_drift_tolerance: largest contact-frame drift per tick (m, default 5e-5) of an ok tick, enforced by trust
+            regions (:mod:`wbc.controllers.contact_hold`), else the tick is not ok; None: measured, not enforced.
         sole_rotation_tolerance: largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of 1/6 m,
             5e-5 m) a contact frame may turn per tick away from where its row sends it on an ok tick, or None (the
             distance alone): the drift is the larger of the distance and the angle times sole_drift_tolerance /
             sole_rotation_tolerance. The contact correction is started and judged on the distance alone.
         budget: CPU time (s) of a tick before its optional stages are skipped, or None (default): the tick's dt;
-            counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (never read from a clock: deterministic);
-            ``math.inf``: no budget (every failure-handling stage runs). What each stage does when it is spent:
-            ``docs/kinematic-controller.md``, "tick budget".
-        clock_guard: also count the tick's CPU time as work (:class:`wbc.controllers.budget.TickBudget`): the tick
-            time is bounded, and a tick that reaches a limit by its clock has an answer that depends on the
-            machine's speed and load. Default False (the answer is a function of the tick's inputs); on in
-            ``wbc ros2 node``, ``--live``, ``--ros2``. Settable as an attribute.
+            counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (not a clock: deterministic); ``math.inf``: no
+            budget. What each stage does when it is spent: ``docs/kinematic-controller.md``, "tick budget".
+        clock_guard: also count the tick's CPU time as work (:class:`wbc.controllers.budget.TickBudget`; the answer
+            then depends on the machine's load). Default False; on in ``wbc ros2 node``, ``--live``, ``--ros2``.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -193,11 +188,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
 
     @property
     def budget(self) -> float | None:
-        """CPU time (s) of a tick, counted in QP solves (constructor docstring), or None: the tick's dt.
-
-        Raises:
-            InvalidInputError: on assignment, not None and not a number > 0.
-        """
+        """CPU time (s) of a tick, counted in QP solves (constructor docstring), or None: the tick's dt; setting it
+        raises InvalidInputError unless None or a number > 0."""
         return self._budget
 
     @budget.setter
