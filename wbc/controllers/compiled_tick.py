@@ -98,9 +98,8 @@ class CompiledTick:
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
-        """The compiled tick's plan for the current layouts, or None when the problem is outside what it covers:
-        strict levels, a backend other than :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or
-        velocity target other than one plain :class:`~wbc.tasks.PostureTask`, a contact of a subclass."""
+        """The compiled tick's plan for the current layouts, or None when it does not cover them (strict levels, a
+        backend other than FastBackend, soft tasks with their own cost or target but a posture, a contact subclass)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
         if not self._layout_ok:

@@ -92,10 +92,8 @@ class GeneralRoute:
         return backend
 
     def _plan_levels(self) -> None:
-        """Before the tick's first solve: strict levels whose cascade and contact correction cannot fit the tick's
-        count at their least work, levels × (1 + ``LEVEL_WORK``) each, as a 'stage' (``TickBudget.may_start``: beside
-        the work counted, e.g. a new layout's, and the reserve) are answered by their weighted form from the start
-        (``docs/kinematic-controller.md``)."""
+        """Before the tick's first solve: strict levels whose cascade (and contact correction) cannot fit as a 'stage'
+        at its least work are answered by their weighted form from the start (``docs/kinematic-controller.md``)."""
         if not self._level_order or self._weighted_tick:
             return
         runs = 2 if self.contact_correction > 0 and self._contacts else 1

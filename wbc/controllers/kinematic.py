@@ -280,8 +280,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         Args:
             constraint: the constraint.
             index: its position in :attr:`constraints`, the order of their rows in the QP (``list.insert``); None
-                (default): appended. Contacts removed and added back where they were (support switches) keep one
-                row layout per set of constraints, built once (:meth:`_build_layout`).
+                (default): appended.
 
         Raises:
             InvalidInputError: not a wbc Constraint, built for another robot (other model, frame ids or nv), or
