@@ -3,8 +3,8 @@
 Each level has four routes (``docs/architecture.md``, "Routes of a tick"):
 
 * kinematic (:class:`wbc.controllers.kinematic.KinematicController`, :data:`KINEMATIC_ROUTES`):
-  ``compiled`` (the assembled flat QP on the compiled solver, :func:`wbc.formulations.velocity_kernel.kinematic_solve`;
-  ``solver="daqp"`` when DAQP solved its reduced QP), ``general`` (the assembled flat QP on the controller's backend),
+  ``compiled`` (the assembled flat QP on the compiled solver, :func:`wbc.formulations.velocity_kernel.kinematic_solve`),
+  ``general`` (the assembled flat QP on the controller's backend),
   ``levels`` (the strict hierarchy, :mod:`wbc.solvers.hierarchy`), ``fallback`` (a safe command: ``constraints_only``,
   ``contacts_held``, ``trust_region`` or ``hold``);
 * inverse dynamics (:class:`wbc.controllers.inverse_dynamics.InverseDynamicsController`, :data:`ID_ROUTES`): ``kernel``
@@ -16,7 +16,7 @@ return rate of joints outside their limits was relaxed) and ``budget`` (twice th
 optional stages; inverse dynamics: the clock guard cut a check of the failed full QP) and ``weighted`` (the
 kinematic clock guard answered the strict levels with their weighted single-QP formulation). Its string form
 (``str(path)``) is the one the logs, summaries and older code read:
-``compiled``, ``compiled+daqp``, ``general:<solver>[+return_rate][+budget]``,
+``compiled``, ``general:<solver>[+return_rate][+budget]``,
 ``levels[+return_rate][+budget][+weighted]``,
 ``kernel``, ``relaxed:<solver>[+budget]``, ``fallback:<kind>``; :meth:`TickPath.parse` reads it back.
 """
@@ -213,12 +213,12 @@ class TickResult(TickResultBase):
             contact row J v = −K e cannot see). An ok tick has sole_drift ≤ ``sole_drift_tolerance``: its contact
             frames move ≤ sole_drift_tolerance and turn ≤ sole_rotation_tolerance from where their rows send them.
         path: the route the tick took (:class:`wbc.tick.TickPath`, one of :data:`wbc.tick.KINEMATIC_ROUTES`):
-            'compiled' (the compiled tick's kernel; solver 'daqp': its reduced QP solved by DAQP), 'general'
+            'compiled' (the compiled tick's kernel), 'general'
             (the general path's flat QP; solver: the backend's name), 'levels' (strict hierarchy), with
             ``return_rate`` when the return rate of joints outside their limits was relaxed and ``budget`` when
             1.75 times the tick's budget stopped its cascade, contact correction or trust region (``message`` names what
             was skipped); on failure 'fallback' (``path.fallback`` = ``fallback``). Its string form is
-            ``compiled``, ``compiled+daqp``, ``general:<backend>``, ``levels`` (each of the last two possibly
+            ``compiled``, ``general:<backend>``, ``levels`` (each of the last two possibly
             followed by ``+return_rate`` and ``+budget``), ``fallback:<fallback>``.
         reason: why the tick failed ('' when ok): 'infeasible' (no solution of the hard set found),
             'sole_drift' (solved, but no trust region kept the contact frames within ``sole_drift_tolerance``),

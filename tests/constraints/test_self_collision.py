@@ -428,12 +428,12 @@ def test_compiled_narrow_phase_inputs(robots):
         narrow_phase.distances(sc._pair_set, h, np.zeros(2, dtype=np.int64), np.zeros(7))
 
 
-def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(robots):
+def test_compiled_tick_hands_the_tick_to_the_general_path_when_its_kernel_gives_up(robots):
     """With inequality rows (self-collision), a tick whose compiled kernel gives up (here: an iteration cap of 1,
-    so every tick whose working set changes) is still a compiled tick: DAQP solves the same reduced QP and the
-    tick is completed from its answer (every tick tried the compiled path, none was skipped), and the trajectory
-    is the DAQP controller's. With the default cap the kernel itself answers every tick of the
-    drive (its dual active set handles the dependent rows that defeated the previous primal pivoting)."""
+    so every tick whose working set changes) is answered by the general path (its backend's DAQP fallback; every
+    tick tried the compiled path first), and the trajectory is the DAQP controller's. With the default cap the
+    kernel itself answers every tick of the drive (its dual active set handles the dependent rows that defeated the
+    previous primal pivoting)."""
     from wbc.solvers import FastBackend, make_backend
 
     robot = robots("talos")
@@ -461,12 +461,12 @@ def test_compiled_tick_hands_its_reduced_qp_to_daqp_when_its_kernel_gives_up(rob
             config.update(config.integrate(res.v, DT))
         runs[solver] = (ctrl.backend, fused_calls, np.array(vs))
     capped, calls, _ = runs["capped"]
-    # every tick tried the compiled path (none skipped); a tick it hands on is one whose contact drift calls for
-    # the general path's second-order correction (drift above contact_correction), as after a kernel answer
-    assert len(calls) == 80 and sum(calls) >= 60, sum(calls)
-    assert capped.reduced_fallbacks > 0 and capped.kernel_solves > 0
+    # every tick tried the compiled path; those whose kernel gave up were handed on and solved by DAQP
+    assert len(calls) == 80 and sum(calls) < 80 and capped.fallbacks > 0, (sum(calls), capped.fallbacks)
     fast, calls, _ = runs["fast"]
-    assert len(calls) == 80 and sum(calls) >= 60 and fast.fallbacks == 0 and fast.reduced_fallbacks == 0
+    # a tick it hands on is one whose contact drift calls for the general path's second-order correction
+    # (drift above contact_correction), as after a kernel answer
+    assert len(calls) == 80 and sum(calls) >= 60 and fast.fallbacks == 0
     for solver in ("capped", "fast"):
         assert np.abs(runs[solver][2] - runs["daqp"][2]).max() < 1e-5, solver
 

@@ -58,6 +58,13 @@ class TickBudget:
         self.first_work = self.resolve_work = self.level_work = 0.0
         self.safe_fresh, self.resolves = False, 0
 
+    def restart_resolves(self) -> None:
+        """A cut cascade's weighted form answers from here: the reserve is its, and the re-solves are counted (work,
+        CPU time) from its start, not the cascade's."""
+        self.work.reserve = 0.0
+        self.first_work = self.resolve_work = self.resolve_cost = 0.0
+        self.resolves = 0
+
     def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None,
                   work: float | None = None) -> bool:
         """May a stage start now: ``"retry"``, an optional stage of a failed tick (confirmation, relaxation,

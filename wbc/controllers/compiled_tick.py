@@ -1,13 +1,8 @@
-"""The compiled tick of the kinematic controller: the assembled flat QP solved by one compiled call.
-
-With the default backend (``solver="fast"``) and no strict level, the QP that
-:meth:`wbc.formulations.velocity.VelocityQP.assemble` writes is solved by
-:func:`wbc.formulations.velocity_kernel.kinematic_solve`: the floating base eliminated through the first contact's
-6 equality rows (a solver strategy, the QP is not changed) and the exact optimum of an active set warm-started
-from the previous tick. When the kernel gives up on the reduced QP (iteration cap, dependent equalities), DAQP
-solves the same reduced QP and the tick is completed from its answer (:meth:`CompiledTick._fused_rescue`).
-Whenever no solver ends at a KKT point, a contact drifts above ``contact_correction`` or anything raises, the tick
-is solved again by the general path (``docs/kinematic-controller.md``)."""
+"""The compiled tick of the kinematic controller: with the default backend (``solver="fast"``) and no strict level,
+the assembled flat QP (:meth:`wbc.formulations.velocity.VelocityQP.assemble`) solved by one compiled call,
+:func:`wbc.formulations.velocity_kernel.kinematic_solve`. Whenever the kernel gives up or ends off a KKT point, a
+contact drifts above ``contact_correction`` or anything raises, the general path solves the tick
+(``docs/kinematic-controller.md``)."""
 
 from __future__ import annotations
 
@@ -19,27 +14,18 @@ import pinocchio as pin
 
 from wbc.compiled import specialise
 from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
-from wbc.constraints.base import BoxConstraint, EqualityConstraint, InequalityConstraint
 from wbc.constraints.contact import ContactConstraint
-from wbc.exceptions import InvalidInputError, SolverError
+from wbc.exceptions import InvalidInputError
 from wbc.controllers.output_guard import command_fault
-from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, command_within, contact_drift,
-                                              contact_pair_drift, kinematic_finish_packed, kinematic_reduced_packed,
+from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, contact_drift, contact_pair_drift,
                                               kinematic_tick_packed, kinematic_views)
-from wbc.solvers import DaqpBackend, FastBackend
+from wbc.solvers import FastBackend
 from wbc.solvers.hierarchy import independent_rows
-from wbc.solvers.status import DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE
-from wbc.tasks.base import Task
 from wbc.tick import TickPath, TickResult, solved_result
 
 
-#: exit codes of :func:`wbc.formulations.velocity_kernel.kinematic_solve` after which its reduced QP is handed to DAQP
-#: (:meth:`CompiledTick._fused_rescue`)
-_KERNEL_GAVE_UP = (DEPENDENT_EQUALITIES, ITERATION_CAP, NOT_POSITIVE_DEFINITE, INFEASIBLE)
-
-
-#: the compiled tick's paths (TickPath is frozen: one instance shared by every result)
-_COMPILED, _COMPILED_DAQP = TickPath("compiled"), TickPath("compiled", "daqp")
+#: the compiled tick's path (TickPath is frozen: one instance shared by every result)
+_COMPILED = TickPath("compiled")
 
 
 class CompiledTick:
@@ -48,10 +34,8 @@ class CompiledTick:
 
     def prepare_layouts(self, arrangements, config: Configuration, dt: float) -> None:
         """Build ahead, outside the ticks, what the first tick of each arrangement of tasks and constraints would
-        build (row layout and buffers, the soft tasks' stacked rows, the compiled tick's plan, box and specialised
-        kernel), for a later tick whose tasks and constraints are one of them (the same objects in the same order;
-        e.g. the support phases of a walk plan). The controller's own tasks, constraints and rank decision and the
-        answers of the ticks are unchanged.
+        build (row layout, buffers, compiled plan and kernel; e.g. for the support phases of a walk plan). The
+        controller's own tasks, constraints and rank decision and the answers of the ticks are unchanged.
 
         Args:
             arrangements: iterable of (tasks, constraints) lists, each a list of the controller's own task and
@@ -70,13 +54,9 @@ class CompiledTick:
         try:
             for tasks, constraints in arrangements:
                 for t in tasks:
-                    if not isinstance(t, Task):
-                        raise InvalidInputError(f"expected a wbc Task, got {type(t).__name__}")
-                    self.robot_check.check(t, "task")
+                    self._check_input(t)
                 for c in constraints:
-                    if not isinstance(c, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
-                        raise InvalidInputError(f"expected a velocity-level wbc Constraint, got {type(c).__name__}")
-                    self.robot_check.check(c, "constraint")
+                    self._check_input(c, task=False)
                 self.tasks[:], self.constraints[:] = tasks, constraints
                 key = tuple((id(c), c.dim) for c in self.constraints)
                 if key != self._layout_key or not self._layout_ok:
@@ -118,9 +98,8 @@ class CompiledTick:
             plan.tick_kernel = specialise(kinematic_tick_packed, *args)
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
-        """The compiled tick's plan for the current layouts, or None when the problem is outside what it covers:
-        strict levels, a backend other than :class:`~wbc.solvers.fast.FastBackend`, a soft task with its own cost or
-        velocity target other than one plain :class:`~wbc.tasks.PostureTask`, a contact of a subclass."""
+        """The compiled tick's plan for the current layouts, or None when it does not cover them (strict levels, a
+        backend other than FastBackend, soft tasks with their own cost or target but a posture, a contact subclass)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
         if not self._layout_ok:
@@ -209,12 +188,8 @@ class CompiledTick:
         if it == NONFINITE_RHS:
             return None
         backend.last_kernel_iterations = it
-        rescued = it in _KERNEL_GAVE_UP and C.shape[0] > 0
-        if rescued:
-            it = self._fused_rescue(plan, v, dt)
-            guard = it >= 1 and command_within(v, lb, ub, C, l, u, tol)
         if it < 1:
-            return None  # the general path: diagnosis, relaxation, safe command
+            return None  # the kernel gave up: the general path (its DAQP fallback, relaxation, safe command)
         if not guard and command_fault(v, lb, ub, C, l, u, tol):  # the compiled screens pass only where it returns ''
             return None
         drift = 0.0
@@ -246,59 +221,24 @@ class CompiledTick:
             if (self.contact_correction > 0 and far > self.contact_correction) or (
                     self.sole_drift_tolerance is not None and drift > self.sole_drift_tolerance):
                 return None  # second-order correction / trust region: the general path
-        if not rescued:
-            backend.kernel_solves += 1
+        backend.kernel_solves += 1
         self.dependent_residual = 0.0
         self.contact_corrections = 0
-        result = solved_result(v, {"assembly": t1 - t0, "solve": perf_counter() - t1}, drift,
-                                _COMPILED_DAQP if rescued else _COMPILED)
+        result = solved_result(v, {"assembly": t1 - t0, "solve": perf_counter() - t1}, drift, _COMPILED)
         for c in self._feedback:
             c.set_previous(v)
         self.consecutive_failures = 0
         self.last_result = result
         return result
 
-    def _fused_rescue(self, plan: FusedPlan, v: np.ndarray, dt: float) -> int:
-        """The kernel gave up on its reduced QP (dependent active rows, e.g. nearly parallel self-collision rows of
-        the thighs, or its iteration cap): DAQP, whose dual active set handles dependent constraints, solves that QP
-        and the tick is completed from its answer; the kernel's next tick is warm-started from DAQP's working set.
-        Returns 1 on success, else the kernel's exit code (the general path then solves the tick)."""
-        backend = self.backend
-        rescue = plan.rescue
-        if rescue is None:
-            rescue = plan.rescue = DaqpBackend(tolerance=backend.tolerance, **backend.settings)
-            rescue.work = self._work
-        fb, ib = self._qp_pack
-        H, g, A, b, C, l, u, lb, ub = kinematic_reduced_packed(fb, ib)
-        try:  # unconfirmed: a failure here sends the tick to the general path, which solves it again
-            x = rescue.solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-        except SolverError:
-            return backend.last_kernel_iterations
-        if not kinematic_finish_packed(fb, ib, x, v, float(dt), backend.tolerance):
-            return backend.last_kernel_iterations
-        lam = rescue.last_multipliers
-        n, m = H.shape[0], A.shape[0]
-        if lam is not None and lam.shape[0] == n + m + C.shape[0]:
-            plan.state[:] = np.sign(lam[:n])
-            plan.rstate[:] = np.sign(lam[n + m:])
-        else:  # no multipliers (an independent solver answered): the bounds and rows x touches
-            plan.state[:] = (x >= ub) * 1 - (x <= lb)
-            cx = C @ x
-            plan.rstate[:] = (cx >= u - 1e-12) * 1 - (cx <= l + 1e-12)
-        backend.fallbacks += 1
-        backend.reduced_fallbacks += 1
-        return 1
-
 
 class FusedPlan:
     """What the compiled tick keeps for one constraint layout and one list of soft tasks beyond the QP's buffers:
     ``states`` (nr + p,) int8, the working sets of the nr reduced variables (``state``) and the p inequality rows
-    (``rstate``) (−1 / 0 / 1: at the lower bound / free / at the upper bound), the contacts' log buffer, the DAQP
-    rescue backend."""
+    (``rstate``) (−1 / 0 / 1: at the lower bound / free / at the upper bound), the contacts' log buffer."""
 
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
     buffers = None  # its TickBuffers (made on the first tick)
     drift_kernel = None  # contact_pair_drift, likewise
-    rescue = None  # DAQP on the reduced QP when the kernel gives up (_fused_rescue), made on first use
     box = None  # the kernel's box arguments (_kernel_box), made on the first tick

@@ -116,11 +116,9 @@ class ContactHold:
     """The contact-hold part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring)."""
 
     def sole_drift(self, config: Configuration, v: np.ndarray, dt: float) -> float:
-        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,): by forward kinematics at
-        pin.integrate(q, v dt), the larger of the distance from where each frame ends to where its contact row
-        sends it (placement · exp((1 − K dt) e)) and the angle between the two (rad) times
-        sole_drift_tolerance / sole_rotation_tolerance (constructor; the distance alone when either is None);
-        ``TickResult.sole_drift``."""
+        """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,), ``TickResult.sole_drift``:
+        :meth:`DriftMeter.measure` against where their contact rows send them, its lever sole_drift_tolerance /
+        sole_rotation_tolerance (constructor; the distance alone when either is None)."""
         if not self._layout_ok:
             self._build_layout()
         return self._contact_drifts(config, v, dt)[2]
@@ -137,8 +135,8 @@ class ContactHold:
         return 0.0 if tol is None or turn is None else tol / turn
 
     def _consistent_contact_rhs(self) -> bool:
-        """After a failed solve, the contact rows' right-hand sides made consistent (:meth:`_project_contact_rhs`: e.g.
-        two flat 5-DoF legs both fixing the base yaw ask disagreeing corrections that no v meets); True when b changed."""
+        """After a failed solve, the contact rows' right-hand sides made consistent (:meth:`_project_contact_rhs`);
+        True when b changed."""
         basis = self._contact_range_basis(ranked=False)
         if basis is None:
             return False
@@ -215,12 +213,9 @@ class ContactHold:
 
     def _held_command(self, config: Configuration, dt: float, v: np.ndarray, relaxed: list, safe: bool = False,
                       held: bool = False) -> TickResult:
-        """v with its contacts held (module docstring): its second-order correction (when on; not when ``held``: J_c v
-        = 0 asked), then, while it drifts past sole_drift_tolerance, trust regions (constructor docstring), each
-        region's solution corrected, the least drifting kept; rank-deficient contact rows projected first
-        (:meth:`_project_contact_rhs`: else their disagreeing corrections ask a large v in the nearly singular
-        direction). ``safe``: the re-solves are the safe command's QP's (``_solve_constraints_only``, bounded by the
-        tick's count), else the tick's QP's."""
+        """v with its contacts held (module docstring): its correction (not when ``held``: J_c v = 0 asked), then,
+        while it drifts past sole_drift_tolerance, trust regions, each solution corrected, the least drifting kept
+        (contact rows projected first, :meth:`_project_contact_rhs`). ``safe``: re-solves of the safe command's QP."""
         solve = self._solve_constraints_only if safe else self._solve_assembled
         if self.contact_correction > 0 and self._contacts and not held:
             v = self._correct_contacts(config, dt, v, safe)

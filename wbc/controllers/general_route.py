@@ -92,10 +92,8 @@ class GeneralRoute:
         return backend
 
     def _plan_levels(self) -> None:
-        """Before the tick's first solve: strict levels whose cascade and contact correction cannot fit the tick's
-        count at their least work, levels × (1 + ``LEVEL_WORK``) each, as a 'stage' (``TickBudget.may_start``: beside
-        the work counted, e.g. a new layout's, and the reserve) are answered by their weighted form from the start
-        (``docs/kinematic-controller.md``)."""
+        """Before the tick's first solve: strict levels whose cascade (and contact correction) cannot fit as a 'stage'
+        at its least work are answered by their weighted form from the start (``docs/kinematic-controller.md``)."""
         if not self._level_order or self._weighted_tick:
             return
         runs = 2 if self.contact_correction > 0 and self._contacts else 1
@@ -134,10 +132,7 @@ class GeneralRoute:
                 # the cascade does not fit the tick (its count, or the clock guard's CPU time); the weighted form of
                 # the levels (one QP, with the reserve the cascade left: WEIGHTED_RESERVE) answers this tick and its
                 # re-solves instead of the last solved level's command (which ignores the levels below it)
-                self._work.reserve = 0.0
-                budget = self.tick_budget  # the tick's re-solves from here: the weighted form's
-                budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
-                budget.resolves = 0
+                self.tick_budget.restart_resolves()
                 self._weighted_from = (self._work.solves, self._work.seconds() if self.clock_guard else 0.0)
                 try:
                     qp = self._weighted_levels(config, H, g)

@@ -58,24 +58,19 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
             without recomputing the rank within the tick.
-        contact_correction: drift (m) of a contact frame over the tick above which the contact rows' right-hand
-            sides are corrected by the measured drift and the tick solved again (:mod:`wbc.controllers.contact_hold`;
-            ≤ 3 Newton steps on e⁺(v) = (1 − K dt) e: only the contact targets move); default 1e-6, 0 = off.
-        sole_drift_tolerance: largest contact-frame drift per tick (m, default 5e-5) of an ok tick, enforced by up to
-            8 trust regions |v_i| ≤ ρ (each ρ the last one's times clip(0.8 · tolerance / its drift, 1/16, 1/2),
-            starting from max|v|), else the tick is not ok; None: measured (``TickResult.sole_drift``), not enforced.
+        contact_correction: drift (m) of a contact frame over the tick above which the tick is solved again with its
+            contact rows corrected (:mod:`wbc.controllers.contact_hold`); default 1e-6, 0 = off.
+        sole_drift_tolerance: largest contact-frame drift per tick (m, default 5e-5) of an ok tick, enforced by trust
+            regions (:mod:`wbc.controllers.contact_hold`), else the tick is not ok; None: measured, not enforced.
         sole_rotation_tolerance: largest angle (rad, default ``SOLE_ROTATION_TOLERANCE`` = 3e-4: at a lever of 1/6 m,
             5e-5 m) a contact frame may turn per tick away from where its row sends it on an ok tick, or None (the
             distance alone): the drift is the larger of the distance and the angle times sole_drift_tolerance /
             sole_rotation_tolerance. The contact correction is started and judged on the distance alone.
         budget: CPU time (s) of a tick before its optional stages are skipped, or None (default): the tick's dt;
-            counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (never read from a clock: deterministic);
-            ``math.inf``: no budget (every failure-handling stage runs). What each stage does when it is spent:
-            ``docs/kinematic-controller.md``, "tick budget".
-        clock_guard: also count the tick's CPU time as work (:class:`wbc.controllers.budget.TickBudget`): the tick
-            time is bounded, and a tick that reaches a limit by its clock has an answer that depends on the
-            machine's speed and load. Default False (the answer is a function of the tick's inputs); on in
-            ``wbc ros2 node``, ``--live``, ``--ros2``. Settable as an attribute.
+            counted in QP solves, ⌊budget / ``SOLVE_COST``⌋ of them (not a clock: deterministic); ``math.inf``: no
+            budget. What each stage does when it is spent: ``docs/kinematic-controller.md``, "tick budget".
+        clock_guard: also count the tick's CPU time as work (:class:`wbc.controllers.budget.TickBudget`; the answer
+            then depends on the machine's load). Default False; on in ``wbc ros2 node``, ``--live``, ``--ros2``.
 
     Raises:
         UnknownSolverError: unknown backend name.
@@ -193,11 +188,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
 
     @property
     def budget(self) -> float | None:
-        """CPU time (s) of a tick, counted in QP solves (constructor docstring), or None: the tick's dt.
-
-        Raises:
-            InvalidInputError: on assignment, not None and not a number > 0.
-        """
+        """CPU time (s) of a tick, counted in QP solves (constructor docstring), or None: the tick's dt; setting it
+        raises InvalidInputError unless None or a number > 0."""
         return self._budget
 
     @budget.setter
@@ -210,15 +202,14 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.tick_budget.seconds = math.nan
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
-    def _start_work(self, budget_s: float, plan=None) -> None:
+    def _start_work(self, budget_s: float) -> None:
         """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers:
         class or instance attributes, they may change between ticks) and share its work with every QP backend."""
         tb = self.tick_budget
         tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
         tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
         work = self._work
-        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend,
-                 None if plan is None else plan.rescue)
+        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend)
         if self._level_backends:
             stamp += tuple(self._level_backends)
         # written only when the backends changed since the last tick that wrote them, or when that tick (or a
@@ -243,9 +234,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             InvalidInputError: not a Task, a negative/non-integer level, both ``level`` and ``hard``, or a task
                 built for another robot (other model, frame ids or nv).
         """
-        if not isinstance(task, Task):
-            raise InvalidInputError(f"expected a wbc Task, got {type(task).__name__}")
-        self.robot_check.check(task, "task")
+        self._check_input(task)
         if hard:
             if level is not None:
                 raise InvalidInputError("a task is either hard or on a priority level, not both")
@@ -291,8 +280,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         Args:
             constraint: the constraint.
             index: its position in :attr:`constraints`, the order of their rows in the QP (``list.insert``); None
-                (default): appended. Contacts removed and added back where they were (support switches) keep one
-                row layout per set of constraints, built once (:meth:`_build_layout`).
+                (default): appended.
 
         Raises:
             InvalidInputError: not a wbc Constraint, built for another robot (other model, frame ids or nv), or
@@ -302,17 +290,23 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                   or not 0 <= index <= len(self.constraints)):
             raise InvalidInputError(f"constraint index must be an integer in [0, {len(self.constraints)}], "
                                     f"got {index!r}")
-        if not isinstance(constraint, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
-            if isinstance(constraint, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
-                raise InvalidInputError(
-                    f"{type(constraint).__name__} {constraint.name!r} is a constraint of the {constraint.level} level; "
-                    f"a KinematicController takes velocity-level constraints (EqualityConstraint, "
-                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
-            raise InvalidInputError(f"expected a wbc Constraint, got {type(constraint).__name__}")
-        self.robot_check.check(constraint, "constraint")
+        self._check_input(constraint, task=False)
         self.constraints.insert(len(self.constraints) if index is None else int(index), constraint)
         self._eq_rows, self._layout_ok = None, False
         return constraint
+
+    def _check_input(self, obj, task: bool = True) -> None:
+        """Raise InvalidInputError unless ``obj`` is a Task (``task``) or a velocity-level constraint of this robot."""
+        if task and not isinstance(obj, Task):
+            raise InvalidInputError(f"expected a wbc Task, got {type(obj).__name__}")
+        if not task and not isinstance(obj, (EqualityConstraint, InequalityConstraint, BoxConstraint)):
+            if isinstance(obj, Constraint):  # e.g. an IDConstraint: rows in [v̇; f], not in v
+                raise InvalidInputError(
+                    f"{type(obj).__name__} {obj.name!r} is a constraint of the {obj.level} level; a "
+                    f"KinematicController takes velocity-level constraints (EqualityConstraint, "
+                    f"InequalityConstraint, BoxConstraint of wbc.constraints)")
+            raise InvalidInputError(f"expected a wbc Constraint, got {type(obj).__name__}")
+        self.robot_check.check(obj, "task" if task else "constraint")
 
     def remove_constraint(self, constraint: Constraint) -> None:
         """Remove a constraint added with :meth:`add_constraint`.
@@ -340,7 +334,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
         self._cut = []
-        self._start_work(dt if self._budget is None else self._budget, self._fused)
+        self._start_work(dt if self._budget is None else self._budget)
         result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
         if result is not None:
             return result

@@ -1,10 +1,7 @@
 """The output guard of a kinematic tick: an ok tick's command is finite and within the box and inequality rows to
 the backend's tolerance (checked against the constraint objects' bounds recomputed at the tick, not read from the
 solver), and every number of its QP is finite; else the tick fails (``TickResult.reason``) and the safe command is
-returned (:mod:`wbc.controllers.recovery`).
-
-Two pure functions of the tick's arrays: :func:`qp_data_fault` (the assembled QP) and :func:`command_fault` (the
-command against its box and rows)."""
+returned (:mod:`wbc.controllers.recovery`). Pure functions of the tick's arrays."""
 
 from __future__ import annotations
 

@@ -153,11 +153,9 @@ class Recovery:
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
     def _solve_constraints_only(self, config: Configuration, uncapped: bool = False, held: bool = False) -> np.ndarray:
-        """The weighted soft level under the constraint objects in the buffers (hard tasks left out; nearly dependent
-        rows once more as band rows, as ``_solve_banded``) on the fallback backend; ``uncapped``: its iteration limit
-        not lowered by the tick's spent count (:meth:`wbc.solvers.daqp.DaqpBackend.call_limit`; its solves still
-        counted); ``held``: each DAQP call at most ``HELD_ITERATIONS`` iterations (a count: the same answer at any
-        load). With the clock guard its CPU time is recorded (``TickBudget.safe_estimate``). Raises SolverError."""
+        """Step 2's QP (module docstring; nearly dependent rows as band rows) on the fallback backend; ``uncapped``: its
+        iteration limit not lowered by the spent count (its solves still counted); ``held``: at most
+        ``HELD_ITERATIONS`` per DAQP call. With the clock guard its CPU time is recorded. Raises SolverError."""
         cap, backend = self._work.cap, self._fallback_backend
         held = held and isinstance(backend, DaqpBackend)
         calls = getattr(backend, "call_iterations", None)
@@ -190,9 +188,8 @@ class Recovery:
                 budget.safe_fresh = True
 
     def _safe_constraints_only(self, config: Configuration, dt: float, anchors) -> tuple[np.ndarray, str]:
-        """(v, 'constraints_only') when step 2's command (module docstring) is taken, else (zeros, 'hold'): its contacts
-        held like an ok tick's (correction, trust region, bounded by the tick's count), taken when within the
-        constraints, ``sole_drift_tolerance`` and the run's radius (:meth:`DriftMeter.held_drift`). Never raises."""
+        """(v, 'constraints_only') when step 2's command (module docstring), its contacts held like an ok tick's, is
+        taken, else (zeros, 'hold'). Never raises."""
         tol = self.sole_drift_tolerance
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"

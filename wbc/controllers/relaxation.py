@@ -140,9 +140,8 @@ class Relaxation:
 
     @contextmanager
     def _unconfirmed(self, backends=None):
-        """``backends`` (default: those of the tick's QP; None entries left out) as a list, unconfirmed inside the block
-        (a failed trial only sends a ladder to its next step); their ``independent`` restored and ``cold_retry`` back
-        on at its end."""
+        """``backends`` (default: the tick's QP's) unconfirmed inside the block (a failed trial only sends a ladder to
+        its next step); their ``independent`` restored and ``cold_retry`` back on at its end."""
         backends = [b for b in backends or (self.backend, self._final_backend, *self._level_backends) if b is not None]
         independent = [b.independent for b in backends]
         try:
@@ -168,16 +167,11 @@ class Relaxation:
         self._eq_rows = None
 
     def _weighted_answer(self, config: Configuration, dt: float, relaxed: list) -> TickResult | None:
-        """The tick answered again by the weighted form of its strict levels (with the reserve the cascade left)
-        after the budget stopped the cascade's contact hold short of ``sole_drift_tolerance``; None when that answer
-        drifts too or fails: the cascade's failure stands."""
+        """The tick answered again by the weighted form of its strict levels after the budget stopped the cascade's
+        contact hold short of ``sole_drift_tolerance``; None when that drifts too or fails."""
         if not self.tick_budget.fits(self.tick_budget.resolve_cost):
             return None
-        self._work.reserve = 0.0
-        # its re-solves are the weighted form's (one QP), not the cascade's: their work and time counted from here
-        budget = self.tick_budget
-        budget.first_work = budget.resolve_work = budget.resolve_cost = 0.0
-        budget.resolves = 0
+        self.tick_budget.restart_resolves()
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
         v = self._try_solve(config)

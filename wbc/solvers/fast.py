@@ -36,8 +36,6 @@ class FastBackend(DaqpBackend):
         skip_give_ups (bool): the same without counting the attempt.
         last_kernel_iterations: working-set iterations of the last kernel call (negative: its exit code).
         kernel_solves / fallbacks: calls answered by the kernel / by DAQP.
-        reduced_fallbacks: of the fallbacks, the kinematic controller's compiled ticks whose reduced QP DAQP
-            solved after the kernel gave up (:meth:`wbc.controllers.compiled_tick.CompiledTick._fused_rescue`).
     """
 
     name = "fast"
@@ -51,7 +49,6 @@ class FastBackend(DaqpBackend):
         self.last_kernel_iterations = 0
         self.kernel_solves = 0
         self.fallbacks = 0
-        self.reduced_fallbacks = 0
         self._rows_failed = False
         self.count_give_ups = False
         self.skip_give_ups = False
