@@ -301,8 +301,7 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     after the other (the compiled tick's one call), and refuses a non-finite
     cost or right-hand side before solving."""
     from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, command_within, form_qp,
-                                                  kinematic_pack,
-                                                  kinematic_reduced_packed, kinematic_solve, kinematic_tick_packed,
+                                                  kinematic_pack, kinematic_solve, kinematic_tick_packed,
                                                   kinematic_views, rows_pack, task_rows)
 
     rng = np.random.default_rng(900 + seed)
@@ -322,7 +321,7 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
         x.l[:], x.u[:] = C @ v0 - 0.2, C @ v0 + 0.2
         x.lb[:6], x.ub[:6] = -np.inf, np.inf
         x.lb[6:], x.ub[6:] = -1.0, 1.0
-    (fb1, ib1, (x1, _, ws1, iws1, _)), (fb2, ib2, (x2, _, ws2, _, _)) = packs
+    (_, _, (x1, _, ws1, iws1, _)), (fb2, ib2, (x2, _, ws2, _, _)) = packs
     nr = nv - 6
     s1, r1, v1 = np.zeros(nr, np.int8), np.zeros(n_in, np.int8), np.empty(nv)
     states2, v2 = np.zeros(nr + n_in, np.int8), np.empty(nv)
@@ -336,10 +335,8 @@ def test_tick_kernel_is_the_cost_the_solve_and_the_screens_in_one_call(seed):
     it2, guard2 = kinematic_tick_packed(TickBuffers(fb2, ib2, sfb, sib, states2), diff, 10.0, 1e-6, v2, 0.002, 1e-6,
                                         200, np.zeros(0), NO_KERNEL_BOX)
     assert it1 >= 1 and (it2, guard2) == (it1, guard1)
-    # the QP's buffers, v·dt and the reduced QP (the float array's scratch holds each route's own temporaries)
+    # the QP's buffers and v·dt (the float array's scratch holds each route's own temporaries)
     assert all(np.array_equal(a, b) for a, b in zip(x1, x2)) and np.array_equal(ws1[:nv], ws2[:nv])
-    assert all(np.array_equal(a, b) for a, b in zip(kinematic_reduced_packed(fb1, ib1),
-                                                   kinematic_reduced_packed(fb2, ib2)))
     assert np.array_equal(v1, v2) and np.array_equal(s1, s2) and np.array_equal(r1, states2[nr:])
     for bad in ("b", "cost"):
         fb, ib, (x, *_) = packs[1]

@@ -21,8 +21,7 @@ from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, 
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
-           "kinematic_finish_packed", "kinematic_pack", "load_kinematic_kernels", "kinematic_reduced_packed",
-           "kinematic_solve", "kinematic_tick_packed", "kinematic_views", "load_kinematic_parts", "NO_KERNEL_BOX",
+           "kinematic_pack", "load_kinematic_kernels", "kinematic_solve", "kinematic_tick_packed", "kinematic_views", "load_kinematic_parts", "NO_KERNEL_BOX",
            "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows", "TaskRows", "TickBuffers", "translation_gap",
            "weighted_rows"]
 
@@ -431,24 +430,6 @@ def kinematic_tick_packed(bufs, diff, pgain, damping, v, dt, tolerance, max_iter
     return it, command_within(v, lb, ub, C, l, u, tolerance)
 
 
-@nb.njit(cache=True, nogil=True)
-def kinematic_reduced_packed(fb, ib):
-    """The reduced QP of the last :func:`kinematic_solve` on these arrays (valid after any return but
-    ``NOT_REDUCIBLE``), views into ``fb``: a :class:`KinematicQP` in the joint velocities x (nr = nv − 6 variables
-    and mr = n_eq − 6 equality rows with the floating-base elimination, else nv and n_eq). Its solution x, given to
-    :func:`kinematic_finish_packed`, completes the tick."""
-    qp, _, ws, _, er = kinematic_views(fb, ib)
-    return KinematicQP(*_solve_views(qp, er, ws)[0])
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def kinematic_finish_packed(fb, ib, x, v, dt, tolerance):
-    """Complete a :func:`kinematic_solve` whose solver gave up from another solver's solution x (nr,) of
-    :func:`kinematic_reduced_packed`: v (nv,) (out) and the check of :func:`_finish` (True: passed, ws[:nv] = v·dt)."""
-    qp, _, ws, _, er = kinematic_views(fb, ib)
-    return _finish(qp, _solve_views(qp, er, ws)[5], x, 6 if er >= 0 else 0, dt, tolerance, ws, v)
-
-
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True, **NO_NRT)
 def contact_drift(logs, b, starts, factors, lever):
     """(largest distance (m), largest drift (m)) of a contact frame from where its row sent it, over the contacts
@@ -553,8 +534,6 @@ def load_kinematic_parts() -> float:
     qp = kinematic_views.py_func(fb, ib)[0]
     form_qp(*rows_pack(1, 7, np.zeros(0, np.int64)), np.zeros(7), 0.0, 1e-6, qp.H, qp.g)
     weighted_rows(np.eye(1, 7, 6), np.zeros(1), np.ones((3, 1)), np.empty((1, 7)), np.empty(1))
-    kinematic_reduced_packed(fb, ib)
-    kinematic_finish_packed(fb, ib, np.zeros(1), np.empty(7), 0.002, 1e-6)
     # kinematic_solve's base elimination, with the argument types it gives (views of the packed workspace)
     _eliminate_base(np.zeros((6, 7)), np.zeros(6), 0, 1, np.zeros((6, 6)), np.zeros((6, 2)))
     _reduce_cost(np.eye(7), np.zeros(7), 6, 1, np.zeros((6, 2)), np.zeros((6, 1)), np.zeros(6), np.zeros((1, 1)),
