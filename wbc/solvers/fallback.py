@@ -223,26 +223,22 @@ class FallbackChain:
         return (self._deadline(end) - thread_time()) / DAQP_ITERATION_COST
 
     def _quadprog_within(self, qp: QPData, stage: str) -> tuple[np.ndarray | None, str]:
-        """:meth:`_quadprog` of ``qp`` when its work (:func:`quadprog_work`, or with a clock guard
-        :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''); else (None, why not),
-        counted in ``quadprog_skipped`` and ``budget_cut``."""
+        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` when its work (:func:`quadprog_work`, or
+        with a clock guard :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''), its work
+        counted and its CPU time noted in :attr:`quadprog_cost`; else (None, why not), counted in ``quadprog_skipped``
+        and ``budget_cut``."""
         work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
-        if work <= self._left(stage):
-            return self._quadprog(qp, work), ""
-        self.quadprog_skipped += 1
-        self.budget_cut = True
-        return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
-                      f"would pass {self._factors(stage)[0]} budgets")
-
-    def _quadprog(self, qp: QPData, work: float) -> np.ndarray | None:
-        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` (x or None), ``work`` counted; its CPU time
-        updates :attr:`quadprog_cost`."""
+        if work > self._left(stage):
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
+                          f"would pass {self._factors(stage)[0]} budgets")
         c0 = thread_time()
         x = solve_pinned_reduced(*qp, self.backend.tolerance)
         self.tick_work += work
         cost = thread_time() - c0
         self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-        return x
+        return x, ""
 
     def _set_check(self, A, b, C, l, u, lb, ub, stage: str) -> bool | None:
         """:func:`~wbc.solvers.independent.hard_set_check` within what :meth:`_left` leaves ``stage``, counted; None
