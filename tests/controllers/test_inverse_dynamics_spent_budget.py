@@ -21,13 +21,15 @@ import fuzz_id  # noqa: E402
 LONGEST_FALLBACK_RUN = 5
 
 
-def _replayed(monkeypatch, seed: int, episode: int) -> list[tuple[str, bool, bool, float]]:
+def _replayed(monkeypatch, seed: int, episode: int, on_tick=None) -> list[tuple[str, bool, bool, float]]:
     """The episode's ticks: (path, ok, HiGHS finds the full QP's hard set feasible, the command's largest violation
-    of the hard rows and bounds, relative to max(1, |bound|))."""
+    of the hard rows and bounds, relative to max(1, |bound|)). ``on_tick(i)``: called before tick i."""
     ticks = []
     solve = IDBalanceController.solve
 
     def recorded(self, q, v):
+        if on_tick is not None:
+            on_tick(len(ticks))
         cmd = solve(self, q, v)
         _, _, A, b, C, l, u, lb, ub = self.qp.build(self.state, fuzz_id.DT)
         x = np.concatenate([cmd.dv, cmd.forces])
@@ -72,9 +74,28 @@ def test_a_feasible_problem_whose_budget_was_spent_never_takes_gravity_compensat
 
 def test_a_commanded_point_of_the_hard_set_is_held_when_the_next_tick_finds_none(monkeypatch):
     """Seed 8433 episode 46 (G1; the one gravity-only tick on a feasible problem of the 10⁶-tick ID fuzz at
-    67ee7a6): tick 0 commands the hard set's point (no solved command to hold); tick 1's budget is spent before its
-    check finds a point. That point is held for tick 1 (``fallback:hold``) instead of gravity compensation."""
-    ticks = _replayed(monkeypatch, 8433, 46)
+    67ee7a6): tick 0 commands the hard set's point (no solved command to hold). Tick 1 is made to find no point and
+    no relaxed answer (its hard-set checks end undecided, its relaxed QP fails), as at 67ee7a6: tick 0's point is
+    held for tick 1 (``fallback:hold``) instead of gravity compensation."""
+    import wbc.solvers.fallback as fallback
+    from wbc.exceptions import SolverError
+    from wbc.solvers.fallback import FallbackChain
+
+    now = [0]
+    check, relaxed = fallback.hard_set_check, FallbackChain.solve_relaxed
+
+    def undecided(*args, **kw):
+        verdict, iterations = check(*args, **kw)
+        return (None if now[0] == 1 else verdict), iterations
+
+    def failing(self, *args, **kw):
+        if now[0] == 1:
+            raise SolverError("the relaxed QP made to fail (test)")
+        return relaxed(self, *args, **kw)
+
+    monkeypatch.setattr(fallback, "hard_set_check", undecided)
+    monkeypatch.setattr(FallbackChain, "solve_relaxed", failing)
+    ticks = _replayed(monkeypatch, 8433, 46, lambda i: now.__setitem__(0, i))
     assert ticks[0][:3] == ("fallback:feasible", False, True), ticks[0]
     assert ticks[1][:3] == ("fallback:hold", False, True), ticks[1]
     assert [i for i, t in enumerate(ticks) if t[0] == "fallback:gravity" and t[2]] == []

@@ -1,16 +1,10 @@
-"""QP solvers: the backends that solve the QP of each formulation (:mod:`~wbc.solvers.qp_data` states it), chosen by
-name (:func:`make_backend`, :func:`available_solvers`, default :data:`DEFAULT_SOLVER`), and what runs around them.
-
-* :mod:`~wbc.solvers.base` — :class:`QPBackend` (the interface, the solution check, polish, independent re-solve)
-  and :class:`TickWork` (a tick's counted work).
-* :mod:`~wbc.solvers.fast` — ``fast``, the default: the in-house compiled active-set kernels
-  (:mod:`~wbc.solvers.box_eq`, :mod:`~wbc.solvers.active_set`), DAQP as fallback; :mod:`~wbc.solvers.daqp` —
-  ``daqp``; :mod:`~wbc.solvers.proxqp` — ``proxqp``; :mod:`~wbc.solvers.by_name` — any other qpsolvers backend.
-* :mod:`~wbc.solvers.compiled_id` — the compiled inverse-dynamics solver; :mod:`~wbc.solvers.fallback` — the ladder
-  of solvers asked after it; :mod:`~wbc.solvers.independent` — re-solves of a QP reported infeasible.
-* :mod:`~wbc.solvers.hierarchy` — the cascade of strict levels; :mod:`~wbc.solvers.diagnosis` — which hard
-  constraints conflict; :mod:`~wbc.solvers.status` and :mod:`~wbc.solvers.linalg` — the kernels' exit codes and
-  shared linear algebra.
+"""QP solvers: the backends that solve each formulation's QP (:mod:`~wbc.solvers.qp_data`), chosen by name
+(:func:`make_backend`, :func:`available_solvers`, default :data:`DEFAULT_SOLVER`: ``fast``, the in-house compiled
+kernels with DAQP as fallback), and what runs around them: the interface and a tick's counted work
+(:mod:`~wbc.solvers.base`), the compiled inverse-dynamics solver and the ladder after it
+(:mod:`~wbc.solvers.compiled_id`, :mod:`~wbc.solvers.fallback`, :mod:`~wbc.solvers.independent`), the cascade of
+strict levels (:mod:`~wbc.solvers.hierarchy`), which hard constraints conflict (:mod:`~wbc.solvers.diagnosis`), the
+kernels' exit codes and shared linear algebra (:mod:`~wbc.solvers.status`, :mod:`~wbc.solvers.linalg`).
 """
 
 from __future__ import annotations

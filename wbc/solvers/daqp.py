@@ -182,9 +182,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         if self.warm_start == "dual":
             return self._solve_dual(H, g)
         tried_oneshot = self._oneshot_first and self.cold_retry
-        if tried_oneshot:
-            # the last solve's workspace calls failed where the one-shot solve then succeeded (a strict level whose
-            # ±band rows make the workspace cycle, exit −2, after hundreds of iterations): the one-shot first
+        if tried_oneshot:  # the last solve's workspace failed where the one-shot call succeeded: that first
             x = self._solve_oneshot(H, g)
             if x is not None:
                 return x
@@ -203,12 +201,11 @@ class DaqpBackend(QPBackend, role="daqp"):
                 self.last_multipliers = info["lam"]
                 return x
             self._note_exit(exitflag, limit)
-            if not self.cold_retry or self.budget_capped:  # a trial (``cold_retry`` off), or the work limit: one
-                self._model = None                         # call; the next solve starts cold
+            if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit); next solve cold
+                self._model = None
                 return None
             if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
-                # the workspace ran its whole iteration limit (cycling): the one-shot call first, the cold workspace
-                # after it only if it fails
+                # the workspace cycled to its iteration limit: the one-shot call, the cold workspace only after it
                 self._model = None
                 x = self._solve_oneshot(H, g)
                 if x is not None:
@@ -253,10 +250,7 @@ class DaqpBackend(QPBackend, role="daqp"):
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
         self._dual = None
         x = None
-        if not self._cold_ran:
-            # (else the attempt before, QPBackend.solve's on the same problem, ran the cold path — a fresh workspace,
-            # then the one-shot solve; dual warm start: the one-shot solve from no dual start — and its answer, if
-            # any, failed the check: deterministic, not computed twice)
+        if not self._cold_ran:  # (else this problem's attempt ran the cold path already: not computed twice)
             self._model = None
             self._oneshot_first = False  # the workspace path first, then the one-shot
             x = self._solve(H, g, A, b, C, l, u, lb, ub)

@@ -1,21 +1,16 @@
 """The fallback ladder of a QP (:class:`FallbackChain`): which solver is asked after which, and under what rules.
 
-The chain asks the compiled solver first when it has one (:class:`~wbc.solvers.compiled_id.CompiledIDSolver`: its
-answer stands when the caller's check accepts it), then its backend; for a DAQP backend (``daqp``, ``fast``):
-
-1. the **attempt**: one DAQP call (cold retry off), its iterations capped by the tick's budget;
-2. the **hard-set checks**: DAQP on the projection of the origin onto the hard set (and the relaxed one): a set
-   proved empty ends the ladder;
-3. the **scaled call**: one DAQP call with the cost divided by max(1, |g|∞, |H|max);
-4. **quadprog**, pinned variables and equality rows eliminated (:func:`~wbc.solvers.independent.solve_pinned_reduced`);
-5. the backend's **retries** (its cold calls).
-
+The compiled solver first when there is one (its answer stands when the caller's check accepts it), then the
+backend; for a DAQP backend (``daqp``, ``fast``): 1. the **attempt**, one DAQP call capped by the tick's budget;
+2. the **hard-set checks** (:func:`~wbc.solvers.independent.hard_set_check`): a set proved empty ends the ladder;
+3. the **scaled call** (cost divided by max(1, |g|∞, |H|max)); 4. **quadprog** with pinned variables and equality rows
+eliminated (:func:`~wbc.solvers.independent.solve_pinned_reduced`); 5. the backend's **retries** (its cold calls).
 A tick whose counted work cut step 3 or 4 on a set with a point resumes there next tick (**resumed scaled call**,
-**resumed quadprog**). Any other backend gets a **second opinion** (:func:`~wbc.solvers.independent.second_opinion`).
-:meth:`FallbackChain.refine` repairs an answer that fails the caller's output check; the relaxed QP has its own
-shorter ladder (:meth:`FallbackChain.solve_relaxed`). Every step after the attempt is bounded by the tick's counted
-work (in DAQP iterations) or, with a clock guard, by CPU time. The rules, factors and measurements:
-docs/inverse-dynamics-controller.md, "The fallback chain".
+**resumed quadprog**; failing, that tick checks the hard sets and ends). Any other backend gets a **second opinion**
+(:func:`~wbc.solvers.independent.second_opinion`). :meth:`FallbackChain.refine` repairs an answer failing the
+caller's output check; the relaxed QP has a shorter ladder (:meth:`FallbackChain.solve_relaxed`). Every step after
+the attempt is bounded by the tick's counted work (DAQP iterations) or, with a clock guard, by CPU time. Rules,
+factors, measurements: docs/inverse-dynamics-controller.md, "The fallback chain".
 """
 
 from __future__ import annotations
@@ -202,7 +197,7 @@ class FallbackChain:
     QUADPROG_WORK = 1.25
     QUADPROG_END = 1.55
     #: the relaxed QP's calls
-    RELAXED_WORK = 1.2
+    RELAXED_WORK = 1.1
     RELAXED_END = 1.75
     #: the attempt and the scaled call on a set found not empty take this many attempt caps together
     SCALED_FEASIBLE_FACTOR = 2
@@ -228,26 +223,22 @@ class FallbackChain:
         return (self._deadline(end) - thread_time()) / DAQP_ITERATION_COST
 
     def _quadprog_within(self, qp: QPData, stage: str) -> tuple[np.ndarray | None, str]:
-        """:meth:`_quadprog` of ``qp`` when its work (:func:`quadprog_work`, or with a clock guard
-        :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''); else (None, why not),
-        counted in ``quadprog_skipped`` and ``budget_cut``."""
+        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` when its work (:func:`quadprog_work`, or
+        with a clock guard :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''), its work
+        counted and its CPU time noted in :attr:`quadprog_cost`; else (None, why not), counted in ``quadprog_skipped``
+        and ``budget_cut``."""
         work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
-        if work <= self._left(stage):
-            return self._quadprog(qp, work), ""
-        self.quadprog_skipped += 1
-        self.budget_cut = True
-        return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
-                      f"would pass {self._factors(stage)[0]} budgets")
-
-    def _quadprog(self, qp: QPData, work: float) -> np.ndarray | None:
-        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` (x or None), ``work`` counted; its CPU time
-        updates :attr:`quadprog_cost`."""
+        if work > self._left(stage):
+            self.quadprog_skipped += 1
+            self.budget_cut = True
+            return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
+                          f"would pass {self._factors(stage)[0]} budgets")
         c0 = thread_time()
         x = solve_pinned_reduced(*qp, self.backend.tolerance)
         self.tick_work += work
         cost = thread_time() - c0
         self.quadprog_cost = cost if cost > self.quadprog_cost else MEASURED_COST_DECAY * self.quadprog_cost
-        return x
+        return x, ""
 
     def _set_check(self, A, b, C, l, u, lb, ub, stage: str) -> bool | None:
         """:func:`~wbc.solvers.independent.hard_set_check` within what :meth:`_left` leaves ``stage``, counted; None
@@ -266,14 +257,14 @@ class FallbackChain:
 
     def _retries(self, qp: QPData, first: SolverError, stage: str, done: str = "") -> tuple:
         """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their
-        :attr:`RETRY_CALLS` calls capped at its share of what :meth:`_left` leaves ``stage``; fewer than
-        MIN_CALL_ITERATIONS left: ``budget_cut``, SolverError (``first`` extended by ``done``, the steps before)."""
+        :attr:`RETRY_CALLS` calls capped at its share of what :meth:`_left` leaves ``stage``; less left than their
+        least counted work: ``budget_cut``, SolverError (``first`` extended by ``done``, the steps before)."""
         if not self.backend.cold_retry:
             raise first
         left = self._left(stage)
         calls = None
         if math.isfinite(left):
-            if left < MIN_CALL_ITERATIONS:
+            if left < self.RETRY_CALLS * (MIN_CALL_ITERATIONS + DAQP_CALL_WORK):  # their least counted work
                 self.budget_cut = True
                 raise SolverError(f"{first}{done}; the backend's retries skipped: the tick's counted work "
                                   f"({self.tick_work:.0f} DAQP iterations) reached {self._factors(stage)[0]} budgets")
@@ -361,24 +352,24 @@ class FallbackChain:
 
     def _ladder(self, qp: QPData, relax: Callable | None) -> QPSolution:
         """The ladder (module docstring), or its resumption (:attr:`resume_scaled`). Raises SolverError."""
-        H, g, A, b, C, l, u, lb, ub = qp
-        backend = self.backend
-        if self.resume_scaled and self._counting() and isinstance(backend, DaqpBackend):
-            # one scaled call of at most SCALED_FEASIBLE_FACTOR × daqp_attempt_iterations iterations
+        if self.resume_scaled and self._counting() and isinstance(self.backend, DaqpBackend):
+            # one scaled call of at most SCALED_FEASIBLE_FACTOR × daqp_attempt_iterations iterations, then quadprog
             cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
             sol = self._call(qp, "resumed scaled call", int(max(MIN_CALL_ITERATIONS, cap)))[0]
             if sol is not None:
                 self.resumed_solves += 1
                 return sol
+            x, skipped = self._quadprog_within(qp, "QUADPROG")
+            if x is not None:
+                self.pinned_reduced_solves += 1
+                return QPSolution(x, "quadprog", "resumed quadprog")  # the next ticks resume the same way
+            # not DAQP's attempt again (the last tick's failed; its iterations would leave the check none): the
+            # hard-set checks, then the cut; the next tick starts the ladder afresh
             self.resume_scaled = False
-            # the next stage the budget cut: quadprog's solve (pinned variables eliminated), when its count fits
-            work = quadprog_work(H.shape[0])
-            if work <= self._left("QUADPROG"):
-                x = self._quadprog(qp, work)
-                if x is not None:
-                    self.pinned_reduced_solves += 1
-                    self.resume_scaled = True  # the next ticks resume the same way
-                    return QPSolution(x, "quadprog", "resumed quadprog")
+            self.budget_cut = True
+            first = SolverError("the resumed scaled call found no solution")
+            self._check_hard_sets(first, qp, relax)
+            raise SolverError(f"{first}; quadprog: {skipped or 'no solution either'}")
         try:
             return self._stages(qp, relax)
         except SolverError:

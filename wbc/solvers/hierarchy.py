@@ -88,16 +88,13 @@ def solve_lexicographic(levels, qp: QPData, backends, final_backend, *, rank_rto
         rank_rtol: relative rank tolerance of the stacked equality rows.
         dependent_row_tolerance: largest residual accepted on a dropped hard equality row (its units).
         band: half-width of the band |J_j v − J_j v_{k−1}| ≤ band that fixes the upper levels (module docstring).
-        stop: called before each level after the first, and after a failed solve of such a level (a controller's
-            counted tick budget); when it returns True the cascade returns the last solved level's solution (a point
-            of the hard set, optimal for every level above) and ``solve_lexicographic.last_cut`` is the number of
-            levels solved (None: every level). The first level is always solved.
-        memo: a dict the caller keeps across cascades of the same levels (a tick's re-solves and the next ticks), or
-            None. A level the last cascade solved only by its damped (or wide-band) retry starts with that retry (a
-            retry that fails is forgotten); under :data:`BAND_KEY` it keeps the equality rows A of the last cascade
-            that had to be solved with its dropped rows as band rows: a cascade on an equal A starts with those bands.
-        level_work: solves added to the backends' counted work (``QPBackend.work``) per level started: the work
-            around a level's QP, so that ``stop`` and the backends' limits see it.
+        stop: asked before each level after the first and after such a level's failed solve (a controller's counted
+            tick budget); True: the last solved level's solution is returned (a point of the hard set, optimal for
+            every level above), ``solve_lexicographic.last_cut`` the number of levels solved (None: every level).
+        memo: a dict the caller keeps across cascades of the same levels, or None: a level's retry that answered last
+            time is asked first (forgotten when it fails); under :data:`BAND_KEY` the equality rows A of the last
+            cascade that needed its dropped rows as band rows (a cascade on an equal A starts with those bands).
+        level_work: solves added to the backends' counted work (``QPBackend.work``) per level started.
 
     Levels below the point where the kept equality rows and the levels above have rank nv are not solved (v is
     fixed); ``solve_lexicographic.last_determined`` is the first such level (soft level: ``len(levels)``) or None.
