@@ -72,6 +72,15 @@ def test_the_first_check_without_a_record_drops_existing_caches(tmp_path):
     assert (pkg / "__pycache__" / RECORD_NAME).exists()
 
 
+@pytest.mark.parametrize("record", ["[1, 2]", '{"callee.py": 3}', "{not json"])
+def test_a_record_it_did_not_write_counts_as_none(tmp_path, record):
+    pkg = _package(tmp_path)
+    assert _g_of_1(tmp_path, pkg, "", check=True) == 20
+    (pkg / "__pycache__" / RECORD_NAME).write_text(record)
+    assert len(drop_stale_caches(pkg, "")) >= 4
+    assert drop_stale_caches(pkg, "") == []
+
+
 def test_a_source_folder_where_no_record_can_be_written_is_not_checked(tmp_path):
     pkg = _package(tmp_path)
     (pkg / "__pycache__").write_text("")  # a file where the cache folder would be: numba cannot cache here either

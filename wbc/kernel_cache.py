@@ -91,6 +91,8 @@ def drop_stale_caches(root: Path | None = None, cache_dir: str | None = None) ->
         old = json.loads(record_path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         old = {}
+    if not isinstance(old, dict) or not all(isinstance(e, list) and len(e) == 3 for e in old.values()):
+        old = {}  # not a record this function wrote: trusted as little as none
     new = {}
     for path in root.rglob("*.py"):
         name = str(path.relative_to(root))
@@ -118,7 +120,7 @@ def drop_stale_caches(root: Path | None = None, cache_dir: str | None = None) ->
                 except OSError:
                     pass
     try:
-        partial = record_path.with_name(f"{RECORD_NAME}.{os.getpid()}")
+        partial = record_path.with_name(f"{record_path.name}.{os.getpid()}")
         partial.write_text(json.dumps(new, sort_keys=True), encoding="utf-8")
         os.replace(partial, record_path)
     except OSError:
