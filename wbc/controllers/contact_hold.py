@@ -146,8 +146,8 @@ class ContactHold:
         return not np.array_equal(b0, self._b[self._contact_rows])
 
     def _contact_range_basis(self, near: bool = False) -> np.ndarray | None:
-        """:meth:`ContactRange.basis` of the contact rows J_c when they are rank deficient at ``rank_rtol``, else None,
-        also when the tick's rank check kept every equality row; ``near``: at NEAR_DEPENDENT_RTOL (if larger)."""
+        """:meth:`ContactRange.basis` of the contact rows J_c when rank deficient at ``rank_rtol``, else None (also
+        when the tick's rank check kept every row); ``near``: at max(rank_rtol, NEAR_DEPENDENT_RTOL), that unchecked."""
         rows = self._contact_rows
         if not near and self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None
