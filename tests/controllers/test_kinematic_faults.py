@@ -90,15 +90,24 @@ def test_non_finite_data_written_in_place_is_never_ok(robots, name, fault):
 
 
 # -- item 2: the contacts_held safe command keeps the stance soles --------------------------------------------------
-def test_failed_ticks_never_slide_a_stance_sole(robots):
+@pytest.mark.parametrize("near", [True, False])
+def test_failed_ticks_never_slide_a_stance_sole(robots, monkeypatch, near):
     """The fuzz case of the issue (humanoid15, dt = 10 ms, contact gains 500 and 1; here the episode builder of
     benchmarks/fuzz.py with seed 4, episode 0, an absurd hand target: 80 failed ticks of 150, the soles slid
     183 mm over one run of failed ticks before). Measured by forward kinematics: over every run of failed ticks
     each stance sole stays within 1 mm of where the run began, and no failed tick's safe command other than a
-    hold moves a sole more than 0.05 mm from where its (scaled) contact row sends it."""
+    hold moves a sole more than 0.05 mm from where its (scaled) contact row sends it. Since a failed tick's retries
+    project the corrections of nearly dependent contact rows (``NEAR_DEPENDENT_RTOL``; ``near``) the episode has
+    no failed tick (2 before); without them (each retry's contact rows at the tick's own rank, as before) the
+    fallbacks are exercised."""
+    from wbc.controllers.contact_hold import ContactHold
+
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import fuzz
 
+    if not near:
+        basis = ContactHold._contact_range_basis
+        monkeypatch.setattr(ContactHold, "_contact_range_basis", lambda self, near=False: basis(self))
     robot = robots("humanoid15")
     dt = 0.01
     rng = np.random.default_rng(4)
@@ -127,7 +136,7 @@ def test_failed_ticks_never_slide_a_stance_sole(robots):
             worst_tick = max(worst_tick, max(np.linalg.norm(a - b) for a, b in zip(after, before)))
     print(f"\n{failed:.0f} failed ticks; max sole displacement over a run of failed ticks {1e3 * worst_run:.4f} mm, "
           f"per failed tick {1e3 * worst_tick:.4f} mm")
-    assert failed >= 1  # the fallbacks are exercised (2 failed ticks with no budget; 80 on the parent commit)
+    assert failed == 0 if near else failed >= 1  # (without: the fallbacks exercised; 80 on the issue's commit)
     assert worst_run <= 1e-3
     # per tick: the drift bound (5e-5 m) plus the scaled correction of an offset below 1 mm (≤ 0.5 · 100/s · dt)
     assert worst_tick <= 5e-5 + 0.5 * 1e-3
@@ -866,8 +875,9 @@ def test_a_first_strict_tick_past_its_count_retries_with_the_weighted_form(robot
     forward kinematics on its own Data).
 
     Seed 100014, episode 176, tick 38 (whose cascade failed after spending the count while tick 0's layout went
-    uncounted) now fails past its count and is answered by 'contacts_held': the soles stay within
-    sole_drift_tolerance of where they were. (Tick 39 until the weighted form's re-solves went to DAQP after a
+    uncounted) failed past its count and was answered by 'contacts_held'; since a failed tick's retries project the
+    corrections of nearly dependent contact rows (``NEAR_DEPENDENT_RTOL``: humanoid15's soles' yaw rows) it is
+    solved: the soles stay within sole_drift_tolerance of where they were. (Tick 39 until the weighted form's re-solves went to DAQP after a
     kernel give-up, ``FastBackend.skip_give_ups``: the episode's states differ in their last bits from then on.)"""
     from wbc.constraints.limits import bounded_joints
 
@@ -907,7 +917,7 @@ def test_a_first_strict_tick_past_its_count_retries_with_the_weighted_form(robot
     before = soles(config.q)
     res = ctrl.solve(config, dt)
     print(f"tick 38: {res.path} ok={res.ok}; {res.message[:200]}")
-    assert not res.ok and res.fallback == "contacts_held" and "diagnosis skipped: tick budget spent" in res.message
+    assert res.ok, (res.path, res.message)
     after = soles(pin.integrate(model, config.q, res.v * dt))
     assert max(np.linalg.norm(a - b) for a, b in zip(after, before)) <= tol
 

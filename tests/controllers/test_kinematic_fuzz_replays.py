@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import count_cascades, fuzz_episode
+from conftest import count_cascades, fuzz_episode, highs_feasible
 from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
@@ -322,5 +322,36 @@ def test_a_re_solve_after_a_costly_first_solve_is_counted_as_one_until_measured(
         res = ctrl.solve(config, DT)
         assert res.ok, (tick, res.path, res.message)
         assert _sole_drift_fk(ctrl, config, res.v) <= SOLE_DRIFT, tick
+        assert ctrl._work.cap == 8 and ctrl._work.solves <= 15, tick
+        config.update(config.integrate(res.v, DT))
+
+
+def test_nearly_dependent_contact_rows_are_projected_in_a_failed_ticks_retries(robots):
+    """Fuzz seed 8109 episode 760 (default flags; humanoid15, an absurd CoM target at a gain of 2e4, strict levels
+    answered by their weighted form, dt 2 ms), the 17 strict-level failures of the 10⁶-tick kinematic fuzz on seeds
+    8100–8119 (s69): its legs have 5 joints (no hip yaw), so the two soles' yaw rows are nearly dependent — the
+    contact rows' smallest singular value 1.1–1.6e-3 of the largest, just above the rank tolerance (1e-3), under
+    ``NEAR_DEPENDENT_RTOL`` (1e-2). Ok tick 32 turned both soles 2.2–2.6e-4 rad (within the bound) and their unequal
+    drift-correction gains (107, 500 1/s) then asked a relative yaw that only |v| ≈ 15–40 (base twist) makes: on
+    main tick 33's hard set had no solution (HiGHS here), ticks 34–47 drifted 0.07–0.13 mm inside every trust region
+    and 48–49 had none either (``fallback:contacts_held``). A failed tick's retries (relaxation ladder, trust
+    region, safe command) now project the corrections of such nearly dependent rows onto the range of J_c (least
+    squares, as for dependent rows): every tick is ok, within the joint velocity limits, its soles within 0.05 mm
+    and 3e-4 rad of where their rows send them (forward kinematics, own Data), each within 1.75 × 8 + 1 counted
+    solves."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8109, 760)
+    assert (name, kind, strict, dt) == ("humanoid15", "absurd", True, DT)
+    vmax = ctrl.robot.model.velocityLimit[6:]
+    for tick in range(50):
+        if tick == 33:
+            _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+            assert not highs_feasible(A, b, C, l, u, lb, ub)  # the rows as asked: no command meets them (HiGHS)
+            s = np.linalg.svd(A[ctrl._contact_rows], compute_uv=False)
+            assert ctrl.rank_rtol < s[-1] / max(s[0], 1.0) < ctrl.NEAR_DEPENDENT_RTOL
+        res = ctrl.solve(config, DT)
+        assert res.ok, (tick, res.path, res.message)
+        assert np.all(np.abs(res.v[6:]) <= vmax + 1e-9), tick
+        drift, turn = _sole_gaps_fk(ctrl, config, res.v)
+        assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (tick, drift, turn)
         assert ctrl._work.cap == 8 and ctrl._work.solves <= 15, tick
         config.update(config.integrate(res.v, DT))

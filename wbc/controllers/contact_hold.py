@@ -137,7 +137,7 @@ class ContactHold:
     def _consistent_contact_rhs(self) -> bool:
         """After a failed solve, the contact rows' right-hand sides made consistent (:meth:`_project_contact_rhs`);
         True when b changed."""
-        basis = self._contact_range_basis(ranked=False)
+        basis = self._contact_range_basis(near=True)
         if basis is None:
             return False
         b0 = self._b[self._contact_rows]
@@ -145,13 +145,13 @@ class ContactHold:
         self._eq_rows = None  # recompute the independent rows for the retry
         return not np.array_equal(b0, self._b[self._contact_rows])
 
-    def _contact_range_basis(self, ranked: bool = True) -> np.ndarray | None:
-        """:meth:`ContactRange.basis` of the contact rows J_c when they are rank deficient, else None (``ranked``: also
-        None when the tick's rank check kept every equality row)."""
+    def _contact_range_basis(self, near: bool = False) -> np.ndarray | None:
+        """:meth:`ContactRange.basis` of the contact rows J_c when rank deficient at ``rank_rtol``, else None (also
+        when the tick's rank check kept every row); ``near``: at max(rank_rtol, NEAR_DEPENDENT_RTOL), that unchecked."""
         rows = self._contact_rows
-        if ranked and self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
+        if not near and self._eq_rows is not None and self._eq_rows.size == self._A.shape[0]:
             return None
-        basis = self.contact_range.basis(self._A[rows], self.rank_rtol)
+        basis = self.contact_range.basis(self._A[rows], max(self.rank_rtol, self.NEAR_DEPENDENT_RTOL * near))
         return None if basis.shape[1] == rows.size else basis
 
     def _project_contact_rhs(self, basis: np.ndarray | None) -> None:
@@ -175,7 +175,8 @@ class ContactHold:
             self._cut.append(stage)
         return False
 
-    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, safe: bool = False) -> np.ndarray:
+    def _correct_contacts(self, config: Configuration, dt: float, v: np.ndarray, safe: bool = False,
+                          near: bool = False) -> np.ndarray:
         """Second-order contact correction (constructor docstring, ``contact_correction``; ``safe``: _held_command)."""
         solve = self._solve_constraints_only if safe else self._solve_assembled
         self.contact_corrections = 0
@@ -183,7 +184,7 @@ class ContactHold:
         if worst <= self.contact_correction:
             return v
         rows = [(r0, r1) for _, r0, r1 in self._contact_blocks]  # in the order of _contacts (of drifts)
-        range_basis = self._contact_range_basis()
+        range_basis = self._contact_range_basis(near)
         b0 = self._b.copy()
         try:
             for k in range(3):
@@ -225,7 +226,7 @@ class ContactHold:
         lb0, ub0, b0 = self._lb.copy(), self._ub.copy(), self._b.copy()
         best_v, best = v, drift
         rho = float(np.max(np.abs(v)))
-        basis = self._contact_range_basis() if self._contact_rows.size else None
+        basis = self._contact_range_basis(near=True) if self._contact_rows.size else None
         n_radii = 8 + (basis is not None)
         radius, last = rho, drift  # the last region's radius and the drift of its solution
         try:
@@ -249,7 +250,7 @@ class ContactHold:
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
-                    v_tr = self._correct_contacts(config, dt, v_tr, safe)
+                    v_tr = self._correct_contacts(config, dt, v_tr, safe, near=True)
                 d = last = self.sole_drift(config, v_tr, dt)
                 if d < best:
                     best_v, best = v_tr, d

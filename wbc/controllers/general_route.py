@@ -124,8 +124,7 @@ class GeneralRoute:
             levels, QPData(H, g, A, b, C, l, u, lb, ub), self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,
             stop=self.tick_budget.level_stop if self._in_solve else None,
-            memo=self._level_memo if self._in_solve else None,
-            level_work=self.LEVEL_WORK)
+            memo=self._level_memo if self._in_solve else None, level_work=self.LEVEL_WORK)
         cut = solve_lexicographic.last_cut
         if cut is not None:
             if self._in_solve and self.tick_budget.fits(self.tick_budget.level_cost):

@@ -19,8 +19,7 @@ from time import perf_counter
 import numpy as np
 
 from wbc.configuration import Configuration
-from wbc.constraints.base import (BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint,
-                                  KinematicContext)
+from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, InequalityConstraint, KinematicContext
 from wbc.constraints.task import TaskConstraint
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
@@ -101,6 +100,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     LEVEL_WORK = 0.5
     #: counted solves expected of a contact hold's first re-solve of one QP (its later ones: the largest so far)
     FIRST_RESOLVE_WORK = 1.0
+    #: contact rows' singular values under this × max(the largest, 1) count as dependent in a failed tick's retries
+    NEAR_DEPENDENT_RTOL = 1e-2
     #: m: a safe command keeps each contact frame within this of where the run of failed ticks began
     SAFE_COMMAND_RADIUS = 5e-4
     #: counted solves per check of a 'contacts_held' command (forward kinematics, drift, radius)

@@ -46,8 +46,7 @@ class Recovery:
                   "infeasible" if isinstance(exc, SolverError) else "exception")
         budget, work, tol = self.tick_budget, self._work, self.sole_drift_tolerance
         over_budget, conflicts = False, []
-        data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb,
-                                   self._ub)
+        data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         late = not budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
         if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
@@ -88,7 +87,7 @@ class Recovery:
                     for c, anchor, (_, r0, r1) in zip(self._contacts, anchors, self._contact_blocks):
                         c.placement = anchor
                         self._b[r0:r1] = c.compute(config, dt)[1]
-                    self._project_contact_rhs(self._contact_range_basis(ranked=False))
+                    self._project_contact_rhs(self._contact_range_basis(near=True))
                     anchored = self._b[self._contact_rows].copy()
                     tried = []  # (β, what became of its command) for the message
                     for beta in scales:
