@@ -17,6 +17,11 @@ from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["PostureTask"]
 
+#: joints whose q ⊖ q* is q − q* (Pinocchio's vector-space joints of one coordinate per velocity)
+_VECTOR_JOINTS = frozenset({"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+                            "JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned",
+                            "JointModelTranslation"})
+
 
 @nb.njit(cache=True, nogil=True)
 def _diagonal_cost(diff, start, weight, gain, H, g):
@@ -69,6 +74,13 @@ class PostureTask(Task):
         self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
         self._vspan = slice(int(self.rows[0]), int(self.rows[-1]) + 1) if contiguous else None  # rows of v as a slice
         self.target = np.array(robot.q_ref, dtype=float)
+        # row_difference: the rows' q − q* on contiguous coordinates when every regulated joint is a vector space
+        joints = [model.joints[robot.joint_id(j)] for j in names]
+        q0 = joints[0].idx_q if joints and all(j.shortname() in _VECTOR_JOINTS for j in joints) else -1
+        self._q_span = slice(q0, q0 + self.dim) if contiguous and q0 >= 0 and all(
+            j.idx_q - q0 == j.idx_v - self.rows[0] for j in joints) else None
+        self._diff = np.zeros(nv)
+        self._diff_rows = self._diff[self._vspan] if self._q_span else None
         _warm_up()
 
     def set_target(self, q) -> None:
@@ -85,6 +97,17 @@ class PostureTask(Task):
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
+
+    def row_difference(self, q: np.ndarray) -> np.ndarray:
+        """(nv,) array whose regulated rows hold q ⊖ q* (``pin.difference(model, target, q)``, the same numbers: q − q*
+        where every regulated joint is a revolute or prismatic one, on contiguous coordinates) at a configuration q
+        (nq,); its other entries are unspecified. The task's own buffer (overwritten at the next call) or Pinocchio's
+        array."""
+        span = self._q_span
+        if span is None:
+            return pin.difference(self.model, self._target, q)
+        np.subtract(q[span], self._target[span], out=self._diff_rows)
+        return self._diff
 
     def drift(self, state) -> np.ndarray:
         """(dim,) zeros: J is a constant selection."""
