@@ -76,7 +76,7 @@ class ComTask(Task):
         Raises:
             InvalidTargetError: wrong shape or NaN.
         """
-        self._target = _checked_target(self, com)  # what assigning ``target`` stores, without the property's calls
+        self._target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()  # as _checked_target
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
     target = ValidatedAttribute(_checked_target, "Target CoM (3,) m, world; validated on assignment (raises "

@@ -316,7 +316,7 @@ class FrameTask(Task):
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         error, jac = np.empty(self.dim), np.empty((self.dim, config.model.nv))
-        self._rows_into(config.model, config.data, error, jac)
+        FrameTask.compute_into(self, config, error, jac)
         return error, jac
 
     def _views(self, data) -> tuple:
@@ -336,15 +336,13 @@ class FrameTask(Task):
         return views
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        """The rows of error and Jacobian (module docstring) of this task's frame at ``config`` (its placement updated
+        here): the compiled kernels of :mod:`wbc.lie` on Pinocchio's placement and joint Jacobians."""
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
-        self._rows_into(config.model, config.kinematics_data, error_out, jac_out)  # its frame placed below
-
-    def _rows_into(self, model, data, error_out: np.ndarray, jac_out: np.ndarray) -> None:
-        """The rows of error and Jacobian (module docstring) of this task's frame in ``data`` (its placement updated
-        by the LOCAL Jacobian read here): the compiled kernels of :mod:`wbc.lie` on Pinocchio's placement."""
-        frame = self._views(data)[4]
+        model, data, views = config.model, config.kinematics_data, self._oMf_views
+        frame = (views if views is not None and views[0] is data else self._views(data))[4]
         pin.updateFramePlacement(model, data, self.frame_id)
         kernel = self._rows_kernel
         if kernel is None:  # Pinocchio's views and the task's buffers: fixed types; the target and outputs: any strides
