@@ -31,9 +31,9 @@ def _warm_up() -> None:
     :class:`~wbc.gait.WalkPlan` row given to :meth:`ComTask.set_target_trusted`); with kernel type checks on
     (:data:`wbc.compiled.CHECK_TYPES`), the dispatcher's versions for a writeable and a read-only target."""
     global _com_rows_any
+    vector, matrix = np.zeros(6)[::2], np.zeros((3, 2))[:, ::2]
+    _com_rows_any = _com_rows if CHECK_TYPES else specialise(_com_rows, vector, vector, matrix, vector, matrix)
     if not CHECK_TYPES:
-        vector, matrix = np.zeros(6)[::2], np.zeros((3, 2))[:, ::2]
-        _com_rows_any = specialise(_com_rows, vector, vector, matrix, vector, matrix)
         return
     frozen = np.zeros(3)
     frozen.flags.writeable = False
@@ -41,7 +41,7 @@ def _warm_up() -> None:
         _com_rows(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
 
 
-_com_rows_any = _com_rows  # specialised by _warm_up (wbc.compiled.specialise): no per-call dispatch
+_com_rows_any = None  # _com_rows specialised by _warm_up (wbc.compiled.specialise; run by every ComTask's constructor)
 
 
 def _checked_target(task, com) -> np.ndarray:

@@ -46,11 +46,11 @@ def _warm_up() -> None:
     :func:`_vector_difference` specialised for q and q* of any strides (the dispatcher with kernel type checks on)."""
     global _vector_difference_any
     _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
-    if not CHECK_TYPES:
-        _vector_difference_any = specialise(_vector_difference, np.zeros(4)[::2], np.zeros(4)[::2], 0, np.zeros(2))
+    _vector_difference_any = _vector_difference if CHECK_TYPES else specialise(
+        _vector_difference, np.zeros(4)[::2], np.zeros(4)[::2], 0, np.zeros(2))
 
 
-_vector_difference_any = _vector_difference  # specialised by _warm_up (wbc.compiled.specialise)
+_vector_difference_any = None  # _vector_difference specialised by _warm_up (run by every PostureTask's constructor)
 
 
 class PostureTask(Task):
