@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from conftest import CATALOG, random_configuration
-from wbc.configuration import LOCAL, LOCAL_WORLD_ALIGNED, Configuration
+from wbc.configuration import LOCAL, LOCAL_WORLD_ALIGNED, Configuration, frame_jacobian_columns, local_jacobian_into
 from wbc.exceptions import ConfigurationError
 
 EPS = 1e-6
@@ -44,6 +44,27 @@ def test_frame_jacobians_match_finite_differences(robots, name):
             JL = config.frame_jacobian(fid, LOCAL)
             np.testing.assert_allclose(R @ (JL[:3] @ dq), lin, atol=1e-6)
             np.testing.assert_allclose(R @ (JL[3:] @ dq), ang, atol=1e-6)
+
+
+@pytest.mark.parametrize("name", CATALOG)
+def test_local_jacobian_from_the_joint_jacobians_is_pinocchios(robots, name):
+    """local_jacobian_into (data.J turned into each frame's axes, on its support columns) gives bit for bit
+    ``pin.getFrameJacobian(..., LOCAL)`` for every frame of the model (zeros, of either sign, included), and those
+    columns are the ones where Pinocchio's Jacobian can be nonzero."""
+    robot = robots(name)
+    model = robot.model
+    rng = np.random.default_rng(3)
+    config = Configuration(robot)
+    for _ in range(3):
+        config.update(random_configuration(robot, rng))
+        data = config.data
+        for fid in range(1, model.nframes):
+            ref = pin.getFrameJacobian(model, data, fid, LOCAL)
+            columns = frame_jacobian_columns(model, fid)
+            out = np.zeros((6, model.nv))
+            local_jacobian_into(data.J, data.oMf[fid].rotation, data.oMf[fid].translation, columns, out)
+            assert np.array_equal(out, ref) and np.array_equal(np.signbit(out), np.signbit(ref)), model.frames[fid].name
+            assert not np.delete(ref, columns, axis=1).any()
 
 
 @pytest.mark.parametrize("name", CATALOG)

@@ -2,7 +2,8 @@
 
 :class:`Configuration` runs Pinocchio once per control tick (joint Jacobians, CoM and its Jacobian; the frame
 placements on the first read of ``data`` after it) and then answers frame placement / Jacobian / CoM queries from that
-cache. Nothing here re-derives kinematics: every number comes from Pinocchio.
+cache. Nothing here re-derives kinematics: every number comes from Pinocchio (:func:`local_jacobian_into` is Pinocchio's
+change of axes of its joint Jacobians into a frame's, the same numbers as ``pin.getFrameJacobian``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from wbc.exceptions import ConfigurationError
 from wbc.geometry import FLOAT64, ReadOnly, check_vector
 from wbc.robot import Robot
 
-__all__ = ["Configuration", "check_vector"]
+__all__ = ["Configuration", "check_vector", "frame_jacobian_columns", "local_jacobian_into"]
 
 LOCAL = pin.ReferenceFrame.LOCAL
 LOCAL_WORLD_ALIGNED = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -68,6 +69,31 @@ def _record_ahead(vdt, q, steps):
     for i in range(q.shape[0]):
         steps[2 * n + i] = q[i]
     return True
+
+
+def frame_jacobian_columns(model: pin.Model, frame_id: int) -> np.ndarray:
+    """(k,) int64 velocity indices of the joints supporting a frame (its parent joint and every ancestor): the
+    columns of its frame Jacobian that can be nonzero (:func:`local_jacobian_into`)."""
+    joints = model.joints
+    return np.array([i for j in model.supports[model.frames[frame_id].parentJoint][1:]
+                     for i in range(joints[j].idx_v, joints[j].idx_v + joints[j].nv)], np.int64)
+
+
+@nb.njit(cache=True, nogil=True)
+def local_jacobian_into(joint_jacobians, rot, pos, columns, out):
+    """out[:, columns] ← the LOCAL frame Jacobian (``pin.getFrameJacobian(model, data, frame, LOCAL)``) of a frame
+    placed at ``rot`` (3, 3), ``pos`` (3,) (its ``data.oMf``, world), from Pinocchio's joint Jacobians ``data.J``
+    (6, nv, world): each column (v; ω) of ``columns`` (:func:`frame_jacobian_columns`) becomes (Rᵀ (v − p × ω); Rᵀ ω),
+    Pinocchio's formula in its order of operations (the same numbers: ``tests/test_configuration.py``). The other
+    columns of out are not written (zeros of the caller's buffer)."""
+    for j in columns:
+        w0, w1, w2 = joint_jacobians[3, j], joint_jacobians[4, j], joint_jacobians[5, j]
+        l0 = joint_jacobians[0, j] - (pos[1] * w2 - pos[2] * w1)
+        l1 = joint_jacobians[1, j] - (pos[2] * w0 - pos[0] * w2)
+        l2 = joint_jacobians[2, j] - (pos[0] * w1 - pos[1] * w0)
+        for i in range(3):
+            out[i, j] = rot[0, i] * l0 + rot[1, i] * l1 + rot[2, i] * l2
+            out[3 + i, j] = rot[0, i] * w0 + rot[1, i] * w1 + rot[2, i] * w2
 
 
 # _scaled_matches and _record_ahead specialised (wbc.compiled.specialise) to their one argument type, contiguous

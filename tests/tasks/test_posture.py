@@ -32,3 +32,18 @@ def test_posture_error_and_rows_of_a_joint_subset(robots):
     np.testing.assert_allclose(H, H2, atol=1e-12)
     np.testing.assert_allclose(g, g2, atol=1e-12)
     np.testing.assert_allclose(g[iv], -np.linspace(1.0, 2.0, len(names)) * (-4.0 * error), atol=1e-12)
+
+
+def test_row_difference_is_pinocchios_difference_on_the_regulated_rows(robots):
+    """row_difference (q − q* on contiguous revolute coordinates, else Pinocchio) equals pin.difference(q*, q) bit
+    for bit on the regulated rows: every actuated joint, a subset, a target assigned after construction."""
+    import pinocchio as pin
+
+    robot = robots("talos")
+    rng = np.random.default_rng(5)
+    names = robot.joint_names
+    for task in (PostureTask(robot), PostureTask(robot, joints=names[3:9]), PostureTask(robot, joints=names[9:3:-1])):
+        for _ in range(3):
+            q, task.target = random_configuration(robot, rng), random_configuration(robot, rng)
+            ref = pin.difference(robot.model, task.target, q)
+            assert np.array_equal(task.row_difference(q)[task.rows], ref[task.rows])

@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
-from wbc.configuration import LOCAL, Configuration
+from wbc.configuration import LOCAL, Configuration, frame_jacobian_columns, local_jacobian_into
 from wbc.constraints.base import EqualityConstraint, KinematicContext
 from wbc.exceptions import InvalidInputError
 from wbc.geometry import as_se3
@@ -36,30 +36,34 @@ def _write_rows(jac, error, scale, A_out, b_out):
 
 
 @nb.njit(cache=True, nogil=True, **NO_NRT)
-def _write_contact_rows(jac, pose, rot, pos, scale, A_out, b_out):
-    """A_out = jac, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.lie.placement_log6_into`: P = ``pose`` (4, 3),
-    M = (``rot``, ``pos``)) in one compiled call, no array allocated. Returns False (nothing written) near a
-    half-turn error."""
+def _write_contact_rows(frame, pose, scale, A_out, b_out):
+    """A_out = the frame's LOCAL Jacobian, b_out = scale · log₆(P⁻¹ M) (:func:`~wbc.lie.placement_log6_into`: P =
+    ``pose`` (4, 3), M = its placement) in one compiled call, no array allocated; ``frame`` = (rotation, position:
+    its placed ``data.oMf``; ``data.J``; its Jacobian's columns), the Jacobian formed by
+    :func:`~wbc.configuration.local_jacobian_into` (``pin.getFrameJacobian``'s numbers). Returns False (nothing
+    written) near a half-turn error."""
+    rot, pos, joint_jacobians, columns = frame
     if not placement_log6_into(pose, rot, pos, b_out):
         return False
-    for i in range(jac.shape[0]):
+    for i in range(6):
         b_out[i] = scale * b_out[i]
-        for j in range(jac.shape[1]):
-            A_out[i, j] = jac[i, j]
+        for j in range(A_out.shape[1]):
+            A_out[i, j] = 0.0
+    local_jacobian_into(joint_jacobians, rot, pos, columns, A_out)
     return True
 
 
 @nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
 def _write_contact_pair_rows(first, second, A, b, ra, rb):
     """:func:`_write_contact_rows` of two contacts in one compiled call, into the rows ``ra`` … ``ra + 6`` and ``rb``
-    … ``rb + 6`` of A (m, nv) and b (m,); ``first``, ``second``: each contact's operands (jac, pose, rot, pos, scale)
-    of :func:`_write_contact_rows` (plain tuples, built per call: cheaper than namedtuples). Returns False near a
+    … ``rb + 6`` of A (m, nv) and b (m,); ``first``, ``second``: each contact's operands (frame, pose, scale) of
+    :func:`_write_contact_rows` (plain tuples, built per call: cheaper than namedtuples). Returns False near a
     half-turn error of either (the second's rows then not written)."""
-    jac, pose, rot, pos, scale = first
-    if not _write_contact_rows(jac, pose, rot, pos, scale, A[ra:ra + 6], b[ra:ra + 6]):
+    frame, pose, scale = first
+    if not _write_contact_rows(frame, pose, scale, A[ra:ra + 6], b[ra:ra + 6]):
         return False
-    jac, pose, rot, pos, scale = second
-    return _write_contact_rows(jac, pose, rot, pos, scale, A[rb:rb + 6], b[rb:rb + 6])
+    frame, pose, scale = second
+    return _write_contact_rows(frame, pose, scale, A[rb:rb + 6], b[rb:rb + 6])
 
 
 def _as_contact_gain(value) -> float:
@@ -84,11 +88,11 @@ def _warm_up() -> None:
     per process, at construction,
     for Pinocchio's array types (F-ordered rotation)."""
     _write_rows(np.zeros((6, 1)), np.zeros(6), 1.0, np.zeros((6, 1)), np.zeros(6))
-    _write_contact_rows(np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0,
-                        np.zeros((6, 1)), np.zeros(6))
-    frame = (np.zeros((6, 1)), np.eye(4, 3), np.asfortranarray(np.eye(3)), np.zeros(3), 1.0)
-    _write_contact_pair_rows(frame, frame, np.zeros((12, 1)), np.zeros(12), 0, 6)
-    _write_contact_pair_rows(frame, frame, *_strided_rows(1), 0, 6)  # write_pair's specialisation
+    frame = (np.asfortranarray(np.eye(3)), np.zeros(3), np.zeros((6, 2), order="F"), np.arange(2))  # data.J: F
+    _write_contact_rows(frame, np.eye(4, 3), 1.0, np.zeros((6, 2)), np.zeros(6))
+    frame = (frame, np.eye(4, 3), 1.0)
+    _write_contact_pair_rows(frame, frame, np.zeros((12, 2)), np.zeros(12), 0, 6)
+    _write_contact_pair_rows(frame, frame, *_strided_rows(2), 0, 6)  # write_pair's specialisation
 
 
 def _strided_rows(nv: int) -> tuple:
@@ -121,7 +125,8 @@ class ContactConstraint(EqualityConstraint):
         self.gain = gain
         self.name = name or f"contact:{frame}"
         self.placement = pin.SE3.Identity()
-        self._oMf_views: dict[int, tuple] = {}  # per Data object: (data, oMf, rotation, translation), _views
+        self._columns = frame_jacobian_columns(robot.model, self.frame_id)  # its Jacobian's (_write_contact_rows)
+        self._oMf_views: dict[int, tuple] = {}  # per Data object: (data, oMf, rotation, translation, frame), _views
         self._recent_views = self._older_views = (None,)  # those of the last two Data objects read, looked at first
         _warm_up()
 
@@ -174,12 +179,13 @@ class ContactConstraint(EqualityConstraint):
             super().write(ctx, A_out, b_out, hi)
             return
         config = ctx.config
-        data = config.kinematics_data  # its frame placed by getFrameJacobian below
+        data = config.kinematics_data  # its frame placed here
         views = self._views(data)
-        jac = pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL)
+        pin.updateFramePlacement(config.model, data, self.frame_id)
         scale = -min(self._gain, 1.0 / ctx.dt)
-        if not _write_contact_rows(jac, self._pose, views[2], views[3], scale, A_out, b_out):
-            _write_rows(jac, pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
+        if not _write_contact_rows(views[4], self._pose, scale, A_out, b_out):
+            _write_rows(pin.getFrameJacobian(config.model, data, self.frame_id, LOCAL),
+                        pin.log6(self._placement.actInv(views[1])).vector, scale, A_out, b_out)
 
     def write_pair(self, other: ContactConstraint, ctx: KinematicContext, A: np.ndarray, b: np.ndarray, row: int,
                    other_row: int) -> None:
@@ -201,14 +207,12 @@ class ContactConstraint(EqualityConstraint):
             row, other_row: where each contact's 6 rows start (0 ≤ row, other_row ≤ m − 6; the blocks disjoint).
         """
         config = ctx.config
-        model, data = config.model, config.kinematics_data  # each frame placed by getFrameJacobian below
-        views = self._views(data)
-        pose_b, rot_b, pos_b = other.log_operands(data)
-        ja = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
-        jb = pin.getFrameJacobian(model, data, other.frame_id, LOCAL)
-        k = 1.0 / ctx.dt
-        first = (ja, self._pose, views[2], views[3], -min(self._gain, k))
-        second = (jb, pose_b, rot_b, pos_b, -min(other.gain, k))
+        model, data = config.model, config.kinematics_data  # each frame placed here
+        pin.updateFramePlacement(model, data, self.frame_id)
+        pin.updateFramePlacement(model, data, other.frame_id)
+        k, ka, kb = 1.0 / ctx.dt, self._gain, other.gain
+        first = (self._views(data)[4], self._pose, -(k if k < ka else ka))  # −min(K, 1/dt)
+        second = (other.frame_operands(data), other._pose, -(k if k < kb else kb))
         kernel = self._pair_kernel
         if kernel is None:  # the operands are Pinocchio's and the contacts' arrays, of fixed types; the stacked rows
             # specialised for any strides (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
@@ -218,6 +222,11 @@ class ContactConstraint(EqualityConstraint):
             self.write(ctx, A[row:row + 6], b[row:row + 6])  # a half-turn error: Pinocchio's log6
             other.write(ctx, A[other_row:other_row + 6], b[other_row:other_row + 6])
 
+    def frame_operands(self, data: pin.Data) -> tuple:
+        """(R (3, 3), p (3,), ``data.J``, the columns of the frame's Jacobian): what :func:`_write_contact_rows` reads
+        of the contact frame in ``data`` (views; the frame placed by the caller)."""
+        return self._views(data)[4]
+
     def log_operands(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(P (4, 3) = [R_P; p_Pᵀ], R (3, 3), p (3,)): the placement and the contact frame's rotation and position
         (world; views of ``data.oMf``, placed by the caller) from which :meth:`error_into` computes log₆(P⁻¹ M) with
@@ -226,8 +235,9 @@ class ContactConstraint(EqualityConstraint):
         return self._pose, views[2], views[3]
 
     def _views(self, data) -> tuple:
-        """(data, oMf, its rotation, its translation) of the contact frame: data.oMf[frame] is a reference into
-        Pinocchio's data and its rotation/translation are views of it (eigenpy), kept per Data object (a few)."""
+        """(data, oMf, its rotation, its translation, the frame argument of :func:`_write_contact_rows`) of the contact
+        frame: data.oMf[frame] is a reference into Pinocchio's data and its rotation/translation, like ``data.J``, are
+        views of it (eigenpy), kept per Data object (a few)."""
         views = self._recent_views
         if views[0] is data:
             return views
@@ -239,7 +249,8 @@ class ContactConstraint(EqualityConstraint):
             if len(self._oMf_views) >= 4:  # a controller's configuration and drift data, kept; others replaced
                 self._oMf_views.clear()
             oMf = data.oMf[self.frame_id]
-            views = self._oMf_views[id(data)] = (data, oMf, oMf.rotation, oMf.translation)
+            frame = (oMf.rotation, oMf.translation, data.J, self._columns)  # _write_contact_rows' frame
+            views = self._oMf_views[id(data)] = (data, oMf, *frame[:2], frame)
         self._older_views, self._recent_views = self._recent_views, views
         return views
 

@@ -173,7 +173,7 @@ class CompiledTick:
             bufs = plan.buffers = TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states)
         # one compiled call: the cost, its finite check and b's, the solve, the output guard's screens
         args = (bufs, self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
-                budget.iteration_cap(backend.max_iter), q, box)  # box: a KernelBox (_kernel_box)
+                budget.iteration_cap(backend.max_iter) if budget.clock_guard else backend.max_iter, q, box)
         kernel = plan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch

@@ -170,7 +170,7 @@ class VelocityQP:
         gather_rows(soft, config)
         posture = soft.posture
         if posture is not None:
-            diff, pgain = pin.difference(self.robot.model, posture.target, config.q), posture.gain
+            diff, pgain = posture.row_difference(config.q), posture.gain
             if posture.weight is not soft.pw:
                 posture.share_weight(soft.pw)
         else:
@@ -192,7 +192,7 @@ class VelocityQP:
         A, b = self._A, self._b
         ctx = self._context
         ctx.config, ctx.dt = config, dt
-        factors, values = self._contact_factors, self._contact_factor_values
+        factors, values, inv = self._contact_factors, self._contact_factor_values, 1.0 / dt
         pair = self._contact_pair
         if pair is not None:
             first, second, row, second_row = pair
@@ -200,7 +200,7 @@ class VelocityQP:
         for i, (c, A_rows, b_rows) in enumerate(self._contact_writes):
             if pair is None:
                 c.write(ctx, A_rows, b_rows, None)
-            f = dt - 1.0 / min(c.gain, 1.0 / dt)
+            f = dt - 1.0 / (inv if inv < (k := c.gain) else k)  # dt − 1 / min(K, 1/dt)
             if f != values[i]:
                 factors[i] = values[i] = f
         for c, r0, r1 in self._other_eq_blocks:

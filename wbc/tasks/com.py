@@ -7,7 +7,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import NO_NRT, once_per_process
+from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
@@ -26,12 +26,22 @@ def _com_rows(com, target, jac, error_out, jac_out):
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_com_rows` (on-disk cache) once per process, at construction: for a writeable target and for a
-    read-only one (a :class:`~wbc.gait.WalkPlan` row given to :meth:`ComTask.set_target_trusted`)."""
+    """Load :func:`_com_rows` (on-disk cache) once per process, at construction, specialised for arguments of any
+    strides (numba layout 'A'): one version for every caller's arrays, a read-only target too (a
+    :class:`~wbc.gait.WalkPlan` row given to :meth:`ComTask.set_target_trusted`); with kernel type checks on
+    (:data:`wbc.compiled.CHECK_TYPES`), the dispatcher's versions for a writeable and a read-only target."""
+    global _com_rows_any
+    vector, matrix = np.zeros(6)[::2], np.zeros((3, 2))[:, ::2]
+    _com_rows_any = _com_rows if CHECK_TYPES else specialise(_com_rows, vector, vector, matrix, vector, matrix)
+    if not CHECK_TYPES:
+        return
     frozen = np.zeros(3)
     frozen.flags.writeable = False
     for target in (np.zeros(3), frozen):
         _com_rows(np.zeros(3), target, np.zeros((3, 1)), np.zeros(3), np.zeros((3, 1)))
+
+
+_com_rows_any = None  # _com_rows specialised by _warm_up (wbc.compiled.specialise; run by every ComTask's constructor)
 
 
 def _checked_target(task, com) -> np.ndarray:
@@ -66,7 +76,7 @@ class ComTask(Task):
         Raises:
             InvalidTargetError: wrong shape or NaN.
         """
-        self._target = _checked_target(self, com)  # what assigning ``target`` stores, without the property's calls
+        self._target = check_vector(com, 3, "CoM target", InvalidTargetError).copy()  # as _checked_target
         self._ff = None if velocity is None else check_vector(velocity, 3, "CoM velocity", InvalidTargetError).copy()
 
     target = ValidatedAttribute(_checked_target, "Target CoM (3,) m, world; validated on assignment (raises "
@@ -83,7 +93,7 @@ class ComTask(Task):
         return config.com - self._target, config.com_jacobian
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
-        _com_rows(config.com, self._target, config.com_jacobian, error_out, jac_out)
+        _com_rows_any(config.com, self._target, config.com_jacobian, error_out, jac_out)
 
     def feedforward(self) -> np.ndarray | None:
         return self._ff

@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
-from wbc.configuration import LOCAL, Configuration
+from wbc.configuration import LOCAL, Configuration, frame_jacobian_columns, local_jacobian_into
 from wbc.exceptions import InvalidTargetError
 from wbc.geometry import as_se3
 from wbc.lie import jlog3_into, log3_columns, log3_into, log3_rate_into, placement_log6_into
@@ -84,6 +84,21 @@ def _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out
     theta = log3_columns(r00, r10, r20, r01, r11, r21, log)
     jlog3_into(theta, log, jlog)
     _frame_rows(rot, jlog, j_local, pos, target_pos, log, rows, error_out, jac_out)
+
+
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
+def _frame_rows_at(frame, target, rows, error_out, jac_out, scratch, has_rot):
+    """:func:`_frame_rows_log` (``has_rot``; else :func:`_frame_rows`, no orientation row) of a frame given as
+    (rotation, position: its placed ``data.oMf``; ``data.J``; its Jacobian's columns; a (6, nv) buffer of zeros but
+    in those columns) and a target (R*ᵀ, p*): the LOCAL Jacobian formed here (:func:`wbc.configuration.
+    local_jacobian_into`) instead of by ``pin.getFrameJacobian``, the same numbers."""
+    rot, pos, joint_jacobians, columns, j_local = frame
+    target_rot_t, target_pos = target
+    local_jacobian_into(joint_jacobians, rot, pos, columns, j_local)
+    if has_rot:
+        _frame_rows_log(rot, target_rot_t, j_local, pos, target_pos, rows, error_out, jac_out, scratch)
+    else:  # log and Jlog₃ unused (no orientation row): any (3,) and (3, 3) arrays
+        _frame_rows(rot, rot, j_local, pos, target_pos, target_pos, rows, error_out, jac_out)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -147,6 +162,15 @@ def _warm_up() -> None:
     _frame_rows_drift(rot, np.zeros(3), (np.eye(3), np.zeros(3)), jac, np.zeros(6), np.zeros(6), rows, e, j,
                       np.empty(6))
     _frame_rows_drift(rot, np.zeros(3), *_strided_drift_arrays(1))
+    specialise(_frame_rows_at, *_frame_rows_at_types(2))  # (6, 2) data.J: F-ordered only, as Pinocchio's
+
+
+def _frame_rows_at_types(nv: int) -> tuple:
+    """Arguments of the types :class:`FrameTask` specialises :func:`_frame_rows_at` for, but ``has_rot``:
+    Pinocchio's views and the task's own buffers, the target and outputs of any strides (numba layout 'A')."""
+    rot, strided = np.asfortranarray(np.eye(3)), _strided_drift_arrays(nv)
+    frame = (rot, np.zeros(3), np.zeros((6, nv), order="F"), np.arange(nv), np.zeros((6, nv)))
+    return frame, strided[0], np.arange(6), *strided[5:7], np.empty(12), True
 
 
 def _strided_drift_arrays(nv: int) -> tuple:
@@ -190,6 +214,7 @@ class FrameTask(Task):
     """
 
     _drift_kernel = None  # compute_with_drift_into's compiled call, specialised at its first call
+    _rows_kernel = None  # compute_into's (_frame_rows_at), likewise
 
     def __init__(self, robot, frame: str, *, position_weight=1.0, orientation_weight=1.0, gain: float = 100.0,
                  name: str | None = None):
@@ -210,7 +235,10 @@ class FrameTask(Task):
         self._ff6 = np.zeros(6)
         self._log_scratch = np.empty(12)  # log₃ and Jlog₃ of compute_into (_frame_rows_log)
         self._ff: np.ndarray | None = None
-        self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation): compute_into
+        model = robot.model
+        # its Jacobian's columns and a buffer of zeros but in them (_frame_rows_at)
+        self._columns, self._j_local = frame_jacobian_columns(model, self.frame_id), np.zeros((6, model.nv))
+        self._oMf_views: tuple | None = None  # (data, oMf, its rotation, its translation, _frame_rows_at's frame)
         self._oMf_other: tuple | None = None  # the same for the Data read before it
         _warm_up()
 
@@ -288,13 +316,13 @@ class FrameTask(Task):
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         error, jac = np.empty(self.dim), np.empty((self.dim, config.model.nv))
-        self._rows_into(config.model, config.data, error, jac)
+        FrameTask.compute_into(self, config, error, jac)
         return error, jac
 
     def _views(self, data) -> tuple:
-        """(data, oMf, its rotation, its translation) of this task's frame: data.oMf[frame] is a reference into
-        Pinocchio's data and its rotation/translation are views of it (eigenpy): kept per Data object (with the
-        objects that own them), they follow every update."""
+        """(data, oMf, its rotation, its translation, the frame argument of :func:`_frame_rows_at`) of this task's
+        frame: data.oMf[frame] is a reference into Pinocchio's data and its rotation/translation, like ``data.J``, are
+        views of it (eigenpy): kept per Data object (with the objects that own them), they follow every update."""
         views = self._oMf_views
         if views is None or views[0] is not data:
             other = self._oMf_other  # the other Data of a configuration that alternates two (Configuration.lookahead)
@@ -302,28 +330,26 @@ class FrameTask(Task):
                 self._oMf_other, views = views, other
             else:
                 oMf = data.oMf[self.frame_id]
-                self._oMf_other, views = views, (data, oMf, oMf.rotation, oMf.translation)
+                frame = (oMf.rotation, oMf.translation, data.J, self._columns, self._j_local)
+                self._oMf_other, views = views, (data, oMf, *frame[:2], frame)
             self._oMf_views = views
         return views
 
     def compute_into(self, config: Configuration, error_out: np.ndarray, jac_out: np.ndarray) -> None:
+        """The rows of error and Jacobian (module docstring) of this task's frame at ``config`` (its placement updated
+        here): the compiled kernels of :mod:`wbc.lie` on Pinocchio's placement and joint Jacobians."""
         if type(self).compute is not FrameTask.compute:  # a subclass with its own error (e.g. relative frames)
             Task.compute_into(self, config, error_out, jac_out)
             return
-        self._rows_into(config.model, config.kinematics_data, error_out, jac_out)  # its frame placed below
-
-    def _rows_into(self, model, data, error_out: np.ndarray, jac_out: np.ndarray) -> None:
-        """The rows of error and Jacobian (module docstring) of this task's frame in ``data`` (its placement updated
-        by the LOCAL Jacobian read here): the compiled kernels of :mod:`wbc.lie` on Pinocchio's placement."""
-        views = self._views(data)
-        rot = views[2]
-        j_local = pin.getFrameJacobian(model, data, self.frame_id, LOCAL)
-        if self._has_rot:
-            _frame_rows_log(rot, self._target_rot_t, j_local, views[3], self._target_pos, self.rows, error_out,
-                            jac_out, self._log_scratch)
-        else:  # log and Jlog₃ unused (no orientation row): any (3,) and (3, 3) arrays
-            _frame_rows(rot, rot, j_local, views[3], self._target_pos, self._target_pos, self.rows, error_out,
-                        jac_out)
+        model, data, views = config.model, config.kinematics_data, self._oMf_views
+        frame = (views if views is not None and views[0] is data else self._views(data))[4]
+        pin.updateFramePlacement(model, data, self.frame_id)
+        kernel = self._rows_kernel
+        if kernel is None:  # Pinocchio's views and the task's buffers: fixed types; the target and outputs: any strides
+            kernel = self._rows_kernel = _frame_rows_at if CHECK_TYPES else specialise(
+                _frame_rows_at, *_frame_rows_at_types(model.nv))
+        kernel(frame, (self._target_rot_t, self._target_pos), self.rows, error_out, jac_out, self._log_scratch,
+               self._has_rot)
 
     def compute_with_drift_into(self, state, error_out: np.ndarray, jac_out: np.ndarray,
                                 drift_out: np.ndarray) -> None:

@@ -10,12 +10,17 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, NO_NRT, once_per_process, specialise
 from wbc.configuration import Configuration, check_vector
 from wbc.exceptions import InvalidTargetError
 from wbc.tasks.base import Task, ValidatedAttribute
 
 __all__ = ["PostureTask"]
+
+#: joints whose q ⊖ q* is q − q* (Pinocchio's vector-space joints of one coordinate per velocity)
+_VECTOR_JOINTS = frozenset({"JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned",
+                            "JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned",
+                            "JointModelTranslation"})
 
 
 @nb.njit(cache=True, nogil=True)
@@ -28,10 +33,24 @@ def _diagonal_cost(diff, start, weight, gain, H, g):
         g[i] -= weight[k] * (-gain * diff[i])
 
 
+@nb.njit(cache=True, **NO_NRT)  # GIL kept: releasing it costs more than this call's work
+def _vector_difference(q, target, start, out):
+    """out[k] = q[start + k] − q*[start + k]: q ⊖ q* on contiguous vector-space coordinates (Pinocchio's q1 − q0)."""
+    for k in range(out.shape[0]):
+        out[k] = q[start + k] - target[start + k]
+
+
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_diagonal_cost` (on-disk cache) once per process, at task construction."""
+    """Load :func:`_diagonal_cost` (on-disk cache) once per process, at task construction, and
+    :func:`_vector_difference` specialised for q and q* of any strides (the dispatcher with kernel type checks on)."""
+    global _vector_difference_any
     _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
+    _vector_difference_any = _vector_difference if CHECK_TYPES else specialise(
+        _vector_difference, np.zeros(4)[::2], np.zeros(4)[::2], 0, np.zeros(2))
+
+
+_vector_difference_any = None  # _vector_difference specialised by _warm_up (run by every PostureTask's constructor)
 
 
 class PostureTask(Task):
@@ -69,6 +88,13 @@ class PostureTask(Task):
         self._span = slice(self.rows[0] * (nv + 1), (self.rows[-1] + 1) * (nv + 1), nv + 1) if contiguous else None
         self._vspan = slice(int(self.rows[0]), int(self.rows[-1]) + 1) if contiguous else None  # rows of v as a slice
         self.target = np.array(robot.q_ref, dtype=float)
+        # row_difference: the rows' q − q* on contiguous coordinates when every regulated joint is a vector space
+        joints = [model.joints[robot.joint_id(j)] for j in names]
+        q0 = joints[0].idx_q if joints and all(j.shortname() in _VECTOR_JOINTS for j in joints) else -1
+        self._q_start = q0 if contiguous and q0 >= 0 and all(
+            j.idx_q - q0 == j.idx_v - self.rows[0] for j in joints) else -1
+        self._diff = np.zeros(nv)
+        self._diff_rows = self._diff[self._vspan] if self._q_start >= 0 else None
         _warm_up()
 
     def set_target(self, q) -> None:
@@ -85,6 +111,16 @@ class PostureTask(Task):
 
     def compute(self, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
         return pin.difference(self.model, self.target, config.q)[self.rows], self._jac
+
+    def row_difference(self, q: np.ndarray) -> np.ndarray:
+        """(nv,) array whose regulated rows hold q ⊖ q* (``pin.difference(model, target, q)``, the same numbers: q − q*
+        where every regulated joint is a revolute or prismatic one, on contiguous coordinates) at a configuration q
+        (nq,); its other entries are unspecified. The task's own buffer (overwritten at the next call) or Pinocchio's
+        array."""
+        if self._q_start < 0:
+            return pin.difference(self.model, self._target, q)
+        _vector_difference_any(q, self._target, self._q_start, self._diff_rows)
+        return self._diff
 
     def drift(self, state) -> np.ndarray:
         """(dim,) zeros: J is a constant selection."""
