@@ -51,9 +51,9 @@ class TickPath:
 
     Attributes:
         route: one of :data:`ROUTES`.
-        solver: the backend that solved the tick's QP (``general``, ``relaxed``: its name, e.g. ``daqp``;
-            ``compiled``/``kernel``: '' for the compiled solver itself, ``daqp`` when DAQP solved its QP);
-            '' for ``levels`` and ``fallback``.
+        solver: the backend that solved the tick's QP (``general``, ``relaxed``: its name, e.g. ``daqp``);
+            '' for ``compiled``/``kernel`` (the compiled solver itself: a QP it gives up goes to the ``general``
+            route), ``levels`` and ``fallback``.
         fallback: the safe command of a ``fallback`` route (e.g. ``constraints_only``, ``hold``, ``gravity``);
             '' otherwise.
         return_rate: the return rate of joints outside their position limits was relaxed (kinematic level).
