@@ -163,6 +163,8 @@ def _warm_up() -> None:
                       np.empty(6))
     _frame_rows_drift(rot, np.zeros(3), *_strided_drift_arrays(1))
     specialise(_frame_rows_at, *_frame_rows_at_types(2))  # (6, 2) data.J: F-ordered only, as Pinocchio's
+    frame, _, rows, *_ = _frame_rows_at_types(2)  # and the dispatcher's call (CHECK_TYPES): contiguous target, outputs
+    specialise(_frame_rows_at, frame, (np.eye(3), np.zeros(3)), rows, np.zeros(6), np.zeros((6, 2)), np.empty(12), True)
 
 
 def _frame_rows_at_types(nv: int) -> tuple:

@@ -46,6 +46,7 @@ def _warm_up() -> None:
     :func:`_vector_difference` specialised for q and q* of any strides (the dispatcher with kernel type checks on)."""
     global _vector_difference_any
     _diagonal_cost(np.zeros(1), 0, np.zeros(1), 1.0, np.zeros((1, 1)), np.zeros(1))
+    specialise(_vector_difference, np.zeros(4), np.zeros(4), 0, np.zeros(2))  # the dispatcher's call (CHECK_TYPES)
     _vector_difference_any = _vector_difference if CHECK_TYPES else specialise(
         _vector_difference, np.zeros(4)[::2], np.zeros(4)[::2], 0, np.zeros(2))
 
