@@ -4,9 +4,7 @@
 :meth:`~InverseDynamicsController.solve` per control period updates :class:`~wbc.state.DynamicsState`, solves the QP
 (its answer passes the QP's output check, :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) and returns
 τ, v̇ and the contact forces; ``IDCommand.path`` names the route (``kernel``, ``general:<backend>``,
-``relaxed:<backend>``, ``fallback:hold|feasible|gravity``). A tick has ``budget`` seconds of CPU time of the calling
-thread, measured (``over_budget``, ``deadline_misses``) and turned into iteration counts, so that its answer is a
-function of its inputs (a clock decides only with ``clock_guard``); a late command is used and counted. The fallback
+``relaxed:<backend>``, ``fallback:hold|feasible|gravity``). The tick's CPU budget: the constructor; the fallback
 chain's stages: :mod:`wbc.solvers.fallback`, docs/inverse-dynamics-controller.md.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`; the violated or conflicting
