@@ -57,36 +57,39 @@ from wbc.solvers.compiled_id import CompiledIDSolver, id_solve
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.fallback import DAQP_SETTINGS, SCALED_EPS_PROX, FallbackChain
 from wbc.solvers.qp_data import QPData
-from wbc.tick import TickPath
+from wbc.tick import TickPath, TickResultBase
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "nonfinite_references"]
+__all__ = ["IDCommand", "InverseDynamicsQP", "nonfinite_references"]
 
 
 @dataclass
-class IDSolution:
-    """Solution of one inverse-dynamics QP.
+class IDCommand(TickResultBase):
+    """A solution of the QP, and the output of a controller's tick (with the fields of
+    :class:`wbc.tick.TickResultBase`: ``ok`` a QP, full or relaxed, was solved; ``message`` the failure reason;
+    ``conflicts`` (name, violation), largest first; ``path`` the route: ``kernel``, ``general:<backend>``,
+    ``relaxed:<backend>``, ``fallback:<kind>``; ``timings`` in s: 'assembly', 'solve', and of a tick 'pinocchio',
+    'total', 'cpu' (thread CPU time, the budgeted quantity)).
 
     Attributes:
-        dv: (nv,) generalized acceleration v̇.
-        forces: (12 n_c,) corner forces (N), sole frames, contact-major then corner-major (x, y, z).
-        tau: (nv − 6,) joint torques (N·m) from eq. (2).
+        tau: (nv − 6,) joint torques (N·m) from eq. (2), Pinocchio's actuated order.
+        dv: (nv,) generalized acceleration v̇; forces: (12 n_c,) corner forces (N), sole frames, contact-major then
+            corner-major (x, y, z); zeros on a gravity fallback.
         wrenches: contact name → (6,) wrench (N, N·m) at the sole origin, world axes.
-        dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
-        timings: seconds spent in 'assembly' and 'solve'.
-        path: the route (:class:`wbc.tick.TickPath`): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``.
-        reason: why a tick left the compiled route and which step of the chain answered; '' on it.
+        relaxed: the relaxed QP was used. dynamics_residual: ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m; nan on a held
+            or gravity command).
+        path_reason: why the tick left the compiled route and which step of the chain answered ('' on it;
+            docs/inverse-dynamics-controller.md, "Routes and reasons").
     """
 
+    tau: np.ndarray
     dv: np.ndarray
     forces: np.ndarray
-    tau: np.ndarray
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
+    relaxed: bool = False
     dynamics_residual: float = 0.0
-    timings: dict[str, float] = field(default_factory=dict)
-    path: TickPath | None = None
-    reason: str = ""
+    path_reason: str = ""
 
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
@@ -372,7 +375,7 @@ class InverseDynamicsQP:
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         return l, u, lb, ub
 
-    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
+    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
         the :attr:`joint_speed_limits` bounds kept. Same returns/raises as :meth:`solve`. ``reuse_assembly``: reuse
         the arrays of this tick's failed full QP at this same ``state`` object and ``dt``."""
@@ -395,9 +398,9 @@ class InverseDynamicsQP:
             raise _output_check_error(sol, viol)
         return sol
 
-    def solve(self, state: DynamicsState, dt: float) -> IDSolution:
+    def solve(self, state: DynamicsState, dt: float) -> IDCommand:
         """Assemble the QP at ``state`` for control period ``dt`` (s), solve it by :attr:`chain` and decode the
-        answer into an :class:`IDSolution` that passes the output check (:meth:`verify`; an answer of the ladder off by
+        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder off by
         the solver's precision is refined first).
 
         Raises:
@@ -478,7 +481,7 @@ class InverseDynamicsQP:
         """:func:`nonfinite_references` of the QP's weighted and hard tasks."""
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
-    def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
+    def _guard_full(self, state: DynamicsState, sol: IDCommand, qp: tuple) -> IDCommand:
         """``sol`` (a full-QP answer of the chain to ``qp``) when it passes the output check; one failing it by at
         most :data:`~wbc.solvers.base.POLISH_RANGE` is refined (:meth:`~wbc.solvers.fallback.FallbackChain.refine`)
         before the chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate
@@ -496,13 +499,13 @@ class InverseDynamicsQP:
             raise _output_check_error(sol, viol)
         return sol
 
-    def _candidate(self, state: DynamicsState, sol: IDSolution, x: np.ndarray, solver: str | None):
+    def _candidate(self, state: DynamicsState, sol: IDCommand, x: np.ndarray, solver: str | None):
         """The solution of a refined candidate ``x`` of ``sol`` (``solver`` None: polished) if it passes, else None."""
         cand = self.solution_from(state, x, sol.timings, sol.path if solver is None else TickPath("general", solver),
-                                  f"{sol.reason or 'output check'} → {'polished' if solver is None else solver}")
+                                  f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}")
         return None if self.verify(state, cand) else cand
 
-    def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
+    def verify(self, state: DynamicsState, sol: IDCommand, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
         """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
         relative tolerance ``tol`` (default the backend's), without the torque limits when ``relaxed``. Returns
@@ -539,9 +542,10 @@ class InverseDynamicsQP:
         return conflicts
 
     def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None,
-                      path: TickPath | None = None, reason: str = "") -> IDSolution:
-        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (:func:`~wbc.formulations.idkernel.id_command`),
-        from the matrices and contact data of the last assembly at this state (``path``, ``reason``: its fields)."""
+                      path: TickPath | None = None, reason: str = "") -> IDCommand:
+        """:class:`IDCommand` of a QP solution x (n,) at ``state`` (:func:`~wbc.formulations.idkernel.id_command`),
+        from the matrices and contact data of the last assembly at this state, with ``path`` and ``path_reason`` =
+        ``reason``."""
         nv = self.nv
         x = np.array(x, dtype=float)  # a fresh contiguous copy: dv and forces are views of it
         rows = self._rows
@@ -552,8 +556,8 @@ class InverseDynamicsQP:
             self._id_command = id_command if CHECK_TYPES else specialise(id_command, *args)
         residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
-        return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
-                          timings=timings or {}, path=path, reason=reason)
+        return IDCommand(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
+                         timings=timings or {}, path=path, path_reason=reason)
 
     @property
     def contact_jacobian_transpose(self) -> np.ndarray:
@@ -561,7 +565,7 @@ class InverseDynamicsQP:
         return self._JcT
 
 
-def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> SolverError:
+def _output_check_error(sol: IDCommand, viol: list[tuple[str, float]]) -> SolverError:
     """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
     return SolverError(f"{sol.path} returned a command that fails the output check: "
                        + ", ".join(f"{n} ({v:.3g})" for n, v in viol))

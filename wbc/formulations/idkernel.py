@@ -373,7 +373,7 @@ class IDOutputCheck:
 
     def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
         """[(constraint name, violation in its units)] of the solution ``sol`` (an
-        :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
+        :class:`~wbc.formulations.acceleration.IDCommand`) at a state of nonlinear effects ``h`` (nv,), largest
         scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
         None when an entry of the solution is not finite."""
         active, out = self._buffers.active, self._buffers.out
