@@ -175,21 +175,18 @@ class InverseDynamicsQP:
         self._lb, self._ub = np.full(n, -np.inf), np.full(n, np.inf)
         self._JcT = np.zeros((nv, 12 * nc))
         load_id_kernels()
-        self._rows = rows = IDProblemRows(self)
-        self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
+        self._rows = rows = IDProblemRows(self)  # the task rows laid out here (and at add/remove_task), not in a tick
         # the constraints' context: views of the gathered contact data (Jacobians, eq. 5's offsets) and of J_cᵀ
         self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT,
                               jacobians={c.name: rows.Jc[k] for k, c in enumerate(self.contacts)},
                               offsets={c.name: rows.cdrift[k] for k, c in enumerate(self.contacts)})
-        for con in self.friction:  # constant while μ is: rewritten only when it changes (_refresh_contact_rows)
-            con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
-            con.written = con.key()
+        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
+        self._refresh_contact_rows()  # friction rows: constant while μ is (rewritten only when it changes)
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._fast = solver == "fast"  # the compiled solver is the chain's first rung
         self._new_buffers()
-        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
         self._m = self._m_contacts = 6  # equality rows of the last build, and the row after its contact rows
         self.chain.hard_set_x = np.zeros(n)

@@ -37,8 +37,8 @@ class IDProblemRows:
                                for i, c in enumerate(qp.contacts)]
         self.active = np.zeros(nc, dtype=np.bool_)
         self.contacts = IDContactData(self.cbuf, self.active)
-        self.layout: tuple | None = None  # none yet: gather (or InverseDynamicsQP's construction) lays them out
         self._rotations: tuple = (None, [])
+        self.relayout(qp)
 
     def relayout(self, qp) -> None:
         """Lay the task rows out for ``qp.tasks`` (dense rows first, then the posture rows)."""
