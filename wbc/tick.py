@@ -142,7 +142,7 @@ class TickPath:
 @dataclass(kw_only=True)
 class TickResultBase:
     """What every controller's tick result says (the kinematic :class:`~wbc.tick.TickResult`, the
-    inverse-dynamics :class:`~wbc.controllers.inverse_dynamics.IDCommand`).
+    inverse-dynamics :class:`~wbc.formulations.acceleration.IDCommand`).
 
     Attributes:
         ok: the tick's QP was solved (else a safe command was returned).

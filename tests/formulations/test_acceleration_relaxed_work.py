@@ -63,9 +63,9 @@ def failed_tick(robots, monkeypatch):
         qp.chain.tick_work = kernel_work
         qp.chain.last_set_empty = last_set_empty
         # the relaxed bounds the tick formed at its state (joint speed bounds included), recorded
-        monkeypatch.setattr(qp, "_relaxed_set", lambda state, dt, l, u, lb, ub: tuple(x.copy() for x in relaxed))
+        monkeypatch.setattr(qp, "_relax", lambda l, u, lb, ub, state=None, dt=0.0: tuple(x.copy() for x in relaxed))
         with pytest.raises(SolverError):
-            qp.chain.solve(QPData(*problem), lambda *bounds: qp._relaxed_set(None, 0.002, *bounds))
+            qp.chain.solve(QPData(*problem), lambda *bounds: qp._relax(*bounds))
         try:
             qp.chain.solve_relaxed(QPData(*problem[:5], *relaxed), formed=False)
             outcome = "relaxed"

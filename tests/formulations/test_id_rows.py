@@ -1,6 +1,6 @@
-"""Constraints added to the inverse-dynamics QP are gathered entries of its one assembly
-(``InverseDynamicsQP._write_added``): the compiled tick (``solver="fast"``) solves the QP with their rows and its
-answer says so (``IDSolution.path`` is ``kernel``). Oracles: quadprog (dense Goldfarb–Idnani, ``conftest``) on the QP
+"""Constraints added to the inverse-dynamics QP are gathered entries of its one assembly (their ``write`` in
+``InverseDynamicsQP.build``): the compiled tick (``solver="fast"``) solves the QP with their rows and its answer says
+so (``IDCommand.path`` is ``kernel``). Oracles: quadprog (dense Goldfarb–Idnani, ``conftest``) on the QP
 that :meth:`InverseDynamicsQP.build` assembles at the same state, and the constraint's own rows, written here."""
 
 from __future__ import annotations

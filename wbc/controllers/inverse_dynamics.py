@@ -4,9 +4,7 @@
 :meth:`~InverseDynamicsController.solve` per control period updates :class:`~wbc.state.DynamicsState`, solves the QP
 (its answer passes the QP's output check, :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.verify`) and returns
 τ, v̇ and the contact forces; ``IDCommand.path`` names the route (``kernel``, ``general:<backend>``,
-``relaxed:<backend>``, ``fallback:hold|feasible|gravity``). A tick has ``budget`` seconds of CPU time of the calling
-thread, measured (``over_budget``, ``deadline_misses``) and turned into iteration counts, so that its answer is a
-function of its inputs (a clock decides only with ``clock_guard``); a late command is used and counted. The fallback
+``relaxed:<backend>``, ``fallback:hold|feasible|gravity``). The tick's CPU budget: the constructor; the fallback
 chain's stages: :mod:`wbc.solvers.fallback`, docs/inverse-dynamics-controller.md.
 
 Failure handling (the tick never raises :class:`~wbc.exceptions.SolverError`; the violated or conflicting
@@ -30,7 +28,6 @@ constraints in ``IDCommand.conflicts``, named by :meth:`InverseDynamicsQP.diagno
 from __future__ import annotations
 
 from collections import Counter, namedtuple
-from dataclasses import dataclass, field
 import math
 from time import perf_counter, thread_time
 
@@ -38,7 +35,7 @@ import numba as nb
 import numpy as np
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.formulations.acceleration import IDCommand, InverseDynamicsQP
 from wbc.formulations.idkernel import inverse_diagonal
 from wbc.solvers.compiled_id import kernel_iterations
 from wbc.solvers.fallback import daqp_attempt_iterations, tick_work_iterations
@@ -46,9 +43,9 @@ from wbc.state import DynamicsState
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.geometry import Flag
 from wbc.solvers.linalg import backward_substitution, cholesky_lower, forward_substitution
-from wbc.tick import TickPath, TickResultBase
+from wbc.tick import TickPath
 
-__all__ = ["InverseDynamicsController", "IDCommand", "GravityWorkspace", "gravity_torques"]
+__all__ = ["InverseDynamicsController", "GravityWorkspace", "gravity_torques"]
 
 #: smallest Cholesky pivot of BᵀB (relative to its diagonal entry; B = (J_c)_u, conditioned ~10) for which
 #: :func:`gravity_torques` solves the normal equations
@@ -128,30 +125,6 @@ def _load_kernels() -> None:
     inverse_diagonal(M, np.empty((nv, nv)), np.empty(nv), np.empty(nv))
 
 
-@dataclass
-class IDCommand(TickResultBase):
-    """Output of one tick (with the fields of :class:`wbc.tick.TickResultBase`: ``ok`` a QP, full or relaxed, was
-    solved; ``message`` the failure reason; ``conflicts`` (name, violation), largest first; ``path``; ``timings`` in
-    s: 'pinocchio', 'assembly', 'solve', 'total', 'cpu' (thread CPU time, the budgeted quantity)).
-
-    Attributes:
-        tau: (nv − 6,) joint torques (N·m), Pinocchio's actuated order.
-        dv: (nv,) generalized acceleration; forces: (12 n_c,) corner forces (N, sole frames); zeros on fallback.
-        wrenches: contact name → (6,) wrench at the sole origin, world axes (N, N·m).
-        relaxed: the relaxed QP was used. dynamics_residual: as :class:`IDSolution`'s (nan on fallback).
-        path_reason: why the tick left the compiled route and which step answered ('' on it;
-            docs/inverse-dynamics-controller.md, "Routes and reasons").
-    """
-
-    tau: np.ndarray
-    dv: np.ndarray
-    forces: np.ndarray
-    wrenches: dict[str, np.ndarray] = field(default_factory=dict)
-    relaxed: bool = False
-    dynamics_residual: float = 0.0
-    path_reason: str = ""
-
-
 class InverseDynamicsController:
     """One inverse-dynamics QP per control tick (module docstring).
 
@@ -190,7 +163,7 @@ class InverseDynamicsController:
         self.diagnose_failures = bool(diagnose)
         self.clock_guard = clock_guard
         self.state = DynamicsState(self.robot)
-        self.last_solution: IDSolution | None = None
+        self.last_solution: IDCommand | None = None  # the last solved tick's command
         self._last_ok: IDCommand | None = None  # the last solved command, for one tick of zero-order hold
         self._last_point: IDCommand | None = None  # the last tick's commanded point of the hard set (``_fail``)
         self.n_ticks = 0
@@ -238,9 +211,6 @@ class InverseDynamicsController:
         self.qp.chain.tick_clock = (c0, self._budget) if self._clock_guard else None
         self.state.update(q, v)
         t1 = perf_counter()
-        relaxed = False
-        message = ""
-        conflicts: list[tuple[str, float]] = []
         try:
             sol = self.qp.solve(self.state, self.dt)
         except SolverError as exc:
@@ -251,7 +221,7 @@ class InverseDynamicsController:
                 sol = self.qp.solve_relaxed(self.state, self.dt, reuse_assembly=True)
             except SolverError as exc2:
                 return self._fail(f"{message}; relaxed QP: {exc2}", conflicts, t0, t1, c0)
-            relaxed = True
+            sol.relaxed, sol.message, sol.conflicts = True, message, conflicts
             self.n_relaxed += 1
             if self.qp.chain.budget_cut:  # the clock guard cut a check of the full QP (or one of its DAQP calls)
                 sol.path = sol.path.with_budget()
@@ -259,13 +229,10 @@ class InverseDynamicsController:
             if lim.dim:
                 sol.tau[lim.joints] = np.clip(sol.tau[lim.joints], -lim.tau_max[lim.joints],
                                               lim.tau_max[lim.joints])
-        self.last_solution = sol
-        cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, relaxed=relaxed,
-                        message=message, dynamics_residual=sol.dynamics_residual, conflicts=conflicts,
-                        path=sol.path, path_reason=sol.reason)
-        cmd.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
-        self._last_ok, self._last_point = cmd, None
-        return self._count(cmd, c0)
+        sol.timings = {"pinocchio": t1 - t0, **sol.timings, "total": perf_counter() - t0}
+        self.last_solution = self._last_ok = sol
+        self._last_point = None
+        return self._count(sol, c0)
 
     def _count(self, cmd: IDCommand, c0: float) -> IDCommand:
         cpu = thread_time() - c0
@@ -295,11 +262,11 @@ class InverseDynamicsController:
         self._last_point = None
         if prev is None and spent:
             # no command to hold: the point of the hard set that the tick's check found (every hard row met)
-            sol = self.qp.solution_from(self.state, self.qp.chain.hard_set_x)
-            cmd = IDCommand(tau=sol.tau, dv=sol.dv, forces=sol.forces, wrenches=sol.wrenches, ok=False,
-                            message=f"{message}; the tick's budget was spent on a full QP whose hard set has a point, "
-                                    "with no solved command to hold: that point is commanded",
-                            dynamics_residual=sol.dynamics_residual, path=TickPath("fallback", fallback="feasible"))
+            cmd = self.qp.solution_from(self.state, self.qp.chain.hard_set_x,
+                                        path=TickPath("fallback", fallback="feasible"))
+            cmd.ok = False
+            cmd.message = (f"{message}; the tick's budget was spent on a full QP whose hard set has a point, with no "
+                           "solved command to hold: that point is commanded")
             self._last_point = cmd
         elif prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
             why = ("the tick's budget was spent on a full QP whose hard set has a point: the last solved command is "

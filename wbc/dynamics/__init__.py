@@ -11,12 +11,12 @@ relaxed solve, safe command) → :class:`IDBalanceController`.
 
 from wbc.dynamics.balance import DEFAULT_GAINS, IDBalanceController
 from wbc.constraints.sole_contact import SoleContact
-from wbc.controllers.inverse_dynamics import IDCommand, InverseDynamicsController
-from wbc.formulations.acceleration import IDSolution, InverseDynamicsQP
+from wbc.controllers.inverse_dynamics import InverseDynamicsController
+from wbc.formulations.acceleration import IDCommand, InverseDynamicsQP
 from wbc.state import DynamicsState
 from wbc.formulations.reference import AccelerationReference
 
 __all__ = [
-    "AccelerationReference", "DEFAULT_GAINS", "DynamicsState", "IDBalanceController", "IDCommand", "IDSolution",
+    "AccelerationReference", "DEFAULT_GAINS", "DynamicsState", "IDBalanceController", "IDCommand",
     "InverseDynamicsController", "InverseDynamicsQP", "SoleContact",
 ]

@@ -30,7 +30,8 @@ from wbc.constants import SIDES
 from wbc.constraints.joint_velocity import JointSpeedBounds, speed_margins
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
-from wbc.controllers.inverse_dynamics import IDCommand, InverseDynamicsController
+from wbc.controllers.inverse_dynamics import InverseDynamicsController
+from wbc.formulations.acceleration import IDCommand
 from wbc.formulations.acceleration import InverseDynamicsQP
 from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError

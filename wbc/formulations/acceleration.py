@@ -53,52 +53,49 @@ from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.base import POLISH_RANGE
-from wbc.solvers.compiled_id import CompiledIDSolver
+from wbc.solvers.compiled_id import CompiledIDSolver, id_solve
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.fallback import DAQP_SETTINGS, SCALED_EPS_PROX, FallbackChain
 from wbc.solvers.qp_data import QPData
-from wbc.tick import TickPath
+from wbc.tick import TickPath, TickResultBase
 from wbc.robot import Robot
 from wbc.tasks.base import Task
 
-__all__ = ["InverseDynamicsQP", "IDSolution", "OUTPUT_REFINE_RANGE", "nonfinite_references"]
+__all__ = ["IDCommand", "InverseDynamicsQP", "nonfinite_references"]
 
 
 @dataclass
-class IDSolution:
-    """Solution of one inverse-dynamics QP.
+class IDCommand(TickResultBase):
+    """A solution of the QP, and the output of a controller's tick (with the fields of
+    :class:`wbc.tick.TickResultBase`: ``ok`` a QP, full or relaxed, was solved; ``message`` the failure reason;
+    ``conflicts`` (name, violation), largest first; ``path`` the route: ``kernel``, ``general:<backend>``,
+    ``relaxed:<backend>``, ``fallback:<kind>``; ``timings`` in s: 'assembly', 'solve', and of a tick 'pinocchio',
+    'total', 'cpu' (thread CPU time, the budgeted quantity)).
 
     Attributes:
-        dv: (nv,) generalized acceleration v̇.
-        forces: (12 n_c,) corner forces (N), sole frames, contact-major then corner-major (x, y, z).
-        tau: (nv − 6,) joint torques (N·m) from eq. (2).
+        tau: (nv − 6,) joint torques (N·m) from eq. (2), Pinocchio's actuated order.
+        dv: (nv,) generalized acceleration v̇; forces: (12 n_c,) corner forces (N), sole frames, contact-major then
+            corner-major (x, y, z); zeros on a gravity fallback.
         wrenches: contact name → (6,) wrench (N, N·m) at the sole origin, world axes.
-        dynamics_residual: ‖M v̇ + h − Sᵀτ − J_cᵀ f‖_∞ (N, N·m).
-        timings: seconds spent in 'assembly' and 'solve'.
-        path: the route (:class:`wbc.tick.TickPath`): ``kernel``, ``general:<backend>``, ``relaxed:<backend>``.
-        reason: why a tick left the compiled route and which step of the chain answered; '' on it.
+        relaxed: the relaxed QP was used. dynamics_residual: ‖M_u v̇ + h_u − (J_cᵀ)_u f‖_∞ (N, N·m; nan on a held
+            or gravity command).
+        path_reason: why the tick left the compiled route and which step of the chain answered ('' on it;
+            docs/inverse-dynamics-controller.md, "Routes and reasons").
     """
 
+    tau: np.ndarray
     dv: np.ndarray
     forces: np.ndarray
-    tau: np.ndarray
     wrenches: dict[str, np.ndarray] = field(default_factory=dict)
+    relaxed: bool = False
     dynamics_residual: float = 0.0
-    timings: dict[str, float] = field(default_factory=dict)
-    path: TickPath | None = None
-    reason: str = ""
+    path_reason: str = ""
 
-
-#: a full-QP answer failing the output check is refined only when it passes it at this relative tolerance
-OUTPUT_REFINE_RANGE = POLISH_RANGE
 
 _KERNEL_PATH = TickPath("kernel")  # the path of every compiled tick (frozen: shared by their solutions)
 
 #: the ID QP's DAQP settings (benchmarks/README.md)
 _ID_SETTINGS = {"daqp": DAQP_SETTINGS, "fast": {**DAQP_SETTINGS, "kernel_rows": False}}
-
-#: the kernels :meth:`InverseDynamicsQP._load_compiled` has loaded in this process ("id_assemble", "id_solve")
-_COMPILED_ID_LOADED: set = set()
 
 
 class InverseDynamicsQP:
@@ -137,8 +134,7 @@ class InverseDynamicsQP:
             if not (np.isfinite(value) and value > 0):
                 raise InvalidInputError(f"{what} must be finite and > 0, got {value!r}")
         self.robot = robot
-        model = robot.model
-        self.nv = nv = model.nv
+        self.nv = nv = robot.model.nv
         self.chain = FallbackChain(make_backend(solver, **_ID_SETTINGS.get(solver, {})) if isinstance(solver, str)
                                    else solver)
         self.eps_a = float(acceleration_regularization)
@@ -173,32 +169,24 @@ class InverseDynamicsQP:
         self._r0 = r  # inequality rows before the added constraints (add_constraint)
         self.extra_constraints: list[IDConstraint] = []
         self.extra_equalities: list[IDConstraint] = []
-        self._H = np.zeros((n, n))
-        self._g = np.zeros(n)
-        self._A = np.zeros((6 + 6 * nc, n))  # grown by add_task(hard=True)
-        self._b = np.zeros(6 + 6 * nc)
-        self._C = np.zeros((r, n))
-        self._l = np.full(r, -np.inf)
-        self._u = np.zeros(r)
-        self._lb = np.full(n, -np.inf)
-        self._ub = np.full(n, np.inf)
+        self._H, self._g = np.zeros((n, n)), np.zeros(n)
+        self._A, self._b = np.zeros((6 + 6 * nc, n)), np.zeros(6 + 6 * nc)  # grown by add_task(hard=True)
+        self._C, self._l, self._u = np.zeros((r, n)), np.full(r, -np.inf), np.zeros(r)
+        self._lb, self._ub = np.full(n, -np.inf), np.full(n, np.inf)
         self._JcT = np.zeros((nv, 12 * nc))
         load_id_kernels()
-        self._rows = rows = IDProblemRows(self)
-        self._rows.relayout(self)  # the task rows laid out here (and at add_task/remove_task), not in the first tick
+        self._rows = rows = IDProblemRows(self)  # the task rows laid out here (and at add/remove_task), not in a tick
         # the constraints' context: views of the gathered contact data (Jacobians, eq. 5's offsets) and of J_cᵀ
         self._ctx = IDContext(state=None, dt=0.0, nv=nv, JcT=self._JcT,
                               jacobians={c.name: rows.Jc[k] for k, c in enumerate(self.contacts)},
                               offsets={c.name: rows.cdrift[k] for k, c in enumerate(self.contacts)})
-        for con in self.friction:  # constant while μ is: rewritten only when it changes (_refresh_contact_rows)
-            con.write(self._ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
-            con.written = con.key()
+        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
+        self._refresh_contact_rows()  # friction rows: constant while μ is (rewritten only when it changes)
         self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._fast = solver == "fast"  # the compiled solver is the chain's first rung
         self._new_buffers()
-        self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self.output_check = IDOutputCheck(self.contacts, self.torque_limits, self._lb[nv:], self._ub[nv:])
         self._m = self._m_contacts = 6  # equality rows of the last build, and the row after its contact rows
         self.chain.hard_set_x = np.zeros(n)
@@ -265,55 +253,39 @@ class InverseDynamicsQP:
     def _new_buffers(self) -> None:
         """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and (``fast``)
         the compiled solver of their sizes as :attr:`chain`'s first rung."""
-        tl, jl, rows = self.torque_limits, self.joint_acceleration_limits, self._rows
+        tl, jl, nv, nc = self.torque_limits, self.joint_acceleration_limits, self.nv, len(self.contacts)
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
                               jl.speed_horizon])
-        self._par_written = None  # the values _assemble last wrote into _par
-        self._qp_views: dict[int, QPData] = {}  # _assemble's QPData of these buffers by equality row count
+        self._par_written = None  # the values build last wrote into _par
+        self._qp_views: dict[int, QPData] = {}  # build's QPData of these buffers by equality row count
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
         self._buffers = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
                          IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
                                   self._JcT),
-                         IDAssemblyWork(rows.Hw, rows.gw, rows.gram, rows.gram_y, np.zeros(jl.dim), np.zeros(jl.dim)))
+                         IDAssemblyWork(np.zeros((nv, nv)), np.zeros(nv), np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
+                                        np.zeros(jl.dim), np.zeros(jl.dim)))
         self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
         if self._fast:
             self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
         self._load_compiled()
 
     def _load_compiled(self) -> None:
-        """Load the compiled assembly (and solver) once per process: one call of each on the buffers at a neutral
-        state (M = I column-major, h = v = 0, no contact active), every buffer they write restored afterwards."""
-        solver = self.chain.compiled if self._fast else None
-        wanted = {"id_assemble", "id_solve"} if solver else {"id_assemble"}
-        if wanted <= _COMPILED_ID_LOADED:
-            return
+        """Load the compiled assembly (and solver) for the types of these buffers and of a DynamicsState (M
+        column-major) at construction, not inside the first tick (:func:`wbc.compiled.specialise`: nothing runs)."""
         nv, rows = self.nv, self._rows
-        arrays = [a for a in (*rows.tasks, *rows.contacts, *self._buffers[0], *self._buffers[1], *self._buffers[2],
-                              *(solver.buffers if solver else ())) if isinstance(a, np.ndarray)]
-        saved = [a.copy() for a in arrays]
-        try:
-            m = id_assemble(rows.tasks, IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv),
-                                                   self.robot.q_ref.copy(), np.zeros(nv), 0.002),
-                            rows.contacts, *self._buffers)
+        dynamics = IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), self.robot.q_ref.copy(), np.zeros(nv), 0.0)
+        specialise(id_assemble, rows.tasks, dynamics, rows.contacts, *self._buffers)
+        if self._fast:
             H, g, A, b, C, l, u, lb, ub, _ = self._buffers[1]
-            try:
-                if solver:
-                    solver.solve(QPData(H, g, A[:abs(m)], b[:abs(m)], C, l, u, lb, ub))
-            except SolverError:  # any answer loads the kernel; this neutral QP's own is not used
-                pass
-            _COMPILED_ID_LOADED.update(wanted)
-        finally:
-            for a, a0 in zip(arrays, saved):
-                np.copyto(a, a0)
+            specialise(id_solve, QPData(H, g, A, b, C, l, u, lb, ub), nv, 100, self.chain.compiled.buffers)
 
     def _layout_inequalities(self) -> None:
-        r = self._r0
+        r = r0 = self._r0
         for con in self.extra_constraints:
             con.rows = slice(r, r + con.dim)
             r += con.dim
         C, l, u = np.zeros((r, self.n)), np.full(r, -np.inf), np.zeros(r)
-        r0 = self._r0
         C[:r0], l[:r0], u[:r0] = self._C[:r0], self._l[:r0], self._u[:r0]  # torque (per tick) and friction rows
         self._C, self._l, self._u = C, l, u
         self._new_buffers()  # id_assemble's argument tuples hold the blocks: new blocks, new tuples
@@ -377,27 +349,6 @@ class InverseDynamicsQP:
                 return c
         raise InvalidInputError(f"no contact {name!r}; contacts: {[c.name for c in self.contacts]}")
 
-    def build(self, state: DynamicsState, dt: float) -> QPData:
-        """The QP at ``state`` for control period ``dt`` (s) (module docstring), as every backend gets it: views of
-        the preallocated arrays, written in place (constant blocks are not rewritten)."""
-        return self._assemble(state, dt)[0]
-
-    def _write_added(self, state: DynamicsState, dt: float, i: int) -> int:
-        """Write the rows no compiled body writes: hard tasks' and added equalities' rows of A from row ``i`` on,
-        added inequalities' rows of C. Returns the row after the last equality row."""
-        ctx = self._ctx
-        ctx.state, ctx.dt = state, dt
-        A, b = self._A, self._b
-        for con in (*self.hard_tasks, *self.extra_equalities):
-            if con.enabled:
-                con.rows = slice(i, i + con.dim)
-                con.write(ctx, A[i:i + con.dim], b[i:i + con.dim], None)
-                i += con.dim
-        C, l, u = self._C, self._l, self._u
-        for con in self.extra_constraints:
-            con.write(ctx, C[con.rows], l[con.rows], u[con.rows])
-        return i
-
     def assembled_qp(self) -> tuple | None:
         """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them; None when none did."""
         if self._assembled is None:
@@ -406,15 +357,9 @@ class InverseDynamicsQP:
         return tuple(a.copy() for a in (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                          self._lb, self._ub))
 
-    def _relaxed_set(self, state: DynamicsState, dt: float, l, u, lb, ub):
-        """Copies of (l, u, lb, ub) of the relaxed QP (:meth:`solve_relaxed`)."""
-        l, u, lb, ub = self._relax(l, u, lb, ub)
-        if self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max also here
-            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
-        return l, u, lb, ub
-
-    def _relax(self, l, u, lb, ub):
-        """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits)."""
+    def _relax(self, l, u, lb, ub, state: DynamicsState | None = None, dt: float = 0.0):
+        """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits); with ``state``,
+        those of the relaxed QP (:meth:`solve_relaxed`: the :attr:`joint_speed_limits` at ``state``, ``dt`` kept)."""
         l, u, lb, ub = l.copy(), u.copy(), lb.copy(), ub.copy()
         for con in self.constraints:
             if not con.relaxable:
@@ -423,9 +368,11 @@ class InverseDynamicsQP:
                 l[con.rows], u[con.rows] = -np.inf, np.inf
             elif con.kind == "bounds":
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
+        if state is not None and self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max
+            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
         return l, u, lb, ub
 
-    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDSolution:
+    def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
         the :attr:`joint_speed_limits` bounds kept. Same returns/raises as :meth:`solve`. ``reuse_assembly``: reuse
         the arrays of this tick's failed full QP at this same ``state`` object and ``dt``."""
@@ -436,22 +383,21 @@ class InverseDynamicsQP:
         if same_tick and reused is not None:
             l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
         else:
-            l, u, lb, ub = self._relaxed_set(state, dt, l, u, lb, ub)
+            l, u, lb, ub = self._relax(l, u, lb, ub, state, dt)
         t1 = perf_counter()
         x, solver, step = self.chain.solve_relaxed(QPData(H, g, A, b, C, l, u, lb, ub), same_tick=same_tick,
                                                    formed=not (same_tick and reused is not None))
         t2 = perf_counter()
-        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": t2 - t1})
-        sol.path = TickPath("relaxed", solver)
-        sol.reason = f"full QP failed → relaxed QP, {step}"
+        sol = self.solution_from(state, x, {"assembly": t1 - t0, "solve": t2 - t1}, TickPath("relaxed", solver),
+                                 f"full QP failed → relaxed QP, {step}")
         self.last_violations = viol = self.verify(state, sol, relaxed=True)
         if viol:
             raise _output_check_error(sol, viol)
         return sol
 
-    def solve(self, state: DynamicsState, dt: float) -> IDSolution:
+    def solve(self, state: DynamicsState, dt: float) -> IDCommand:
         """Assemble the QP at ``state`` for control period ``dt`` (s), solve it by :attr:`chain` and decode the
-        answer into an :class:`IDSolution` that passes the output check (:meth:`verify`; an answer of the ladder off by
+        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder off by
         the solver's precision is refined first).
 
         Raises:
@@ -464,33 +410,32 @@ class InverseDynamicsQP:
         self._assembled = None
         self.chain.begin_tick()
         t0 = perf_counter()
-        qp, skip = self._assemble(state, dt)
+        qp = self.build(state, dt)
         self._assembled = (id(state), dt)  # solve_relaxed(reuse_assembly=True) may reuse these arrays
         t1 = perf_counter()
         checked = []
 
         def check(x):  # the compiled solver's answer stands when it passes the output check
-            checked.append(self.solution_from(state, x, timings={"assembly": t1 - t0}))
+            checked.append(self.solution_from(state, x, {"assembly": t1 - t0}, _KERNEL_PATH))
             self.last_violations = viol = self.verify(state, checked[-1])
             return f"kernel answer fails the output check ({viol[0][0]})" if viol else ""
 
-        x, solver, step = self.chain.solve(qp, lambda l, u, lb, ub: self._relaxed_set(state, dt, l, u, lb, ub),
-                                           check, skip)
+        x, solver, step = self.chain.solve(qp, lambda l, u, lb, ub: self._relax(l, u, lb, ub, state, dt),
+                                           check, self._skip)
         if solver == CompiledIDSolver.name:
             sol = checked[-1]
             sol.timings["solve"] = perf_counter() - t1
-            sol.path = _KERNEL_PATH
             return sol
-        sol = self.solution_from(state, x, timings={"assembly": t1 - t0, "solve": perf_counter() - t1})
-        sol.path = TickPath("general", solver)
         why = self.chain.compiled_reason
-        sol.reason = f"{why} → {solver} {step}" if why else ""
+        sol = self.solution_from(state, x, {"assembly": t1 - t0, "solve": perf_counter() - t1},
+                                 TickPath("general", solver), f"{why} → {solver} {step}" if why else "")
         return self._guard_full(state, sol, qp)
 
-    def _assemble(self, state: DynamicsState, dt: float) -> tuple[QPData, str]:
-        """The one assembly (:meth:`build`): the rows gathered, :func:`~wbc.formulations.idkernel.id_assemble`, the
-        dependent contact directions dropped, :meth:`_write_added`. Returns the QP and why the compiled solver is not
-        asked ('' when it is)."""
+    def build(self, state: DynamicsState, dt: float) -> QPData:
+        """The QP at ``state`` for control period ``dt`` (s) (module docstring), as every backend gets it: views of
+        the preallocated arrays, written in place (constant blocks are not rewritten). The one assembly: the rows
+        gathered, :func:`~wbc.formulations.idkernel.id_assemble`, the dependent contact directions dropped, the rows
+        of hard tasks and added constraints by their ``write``."""
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
@@ -505,13 +450,21 @@ class InverseDynamicsQP:
             # the dispatcher, which resolves them on every call)
             self._id_assemble = id_assemble if CHECK_TYPES else specialise(id_assemble, *args)
         m = self._id_assemble(*args)
-        skip = ""
+        self._skip = ""  # why the compiled solver is not asked ('' when it is)
         if m < 0:  # ≥ 2 active contacts not certified well conditioned: the nearly dependent directions dropped
             m = 6 + independent_contact_rows(self._A[6:-m], self._b[6:-m])  # (rows 6 .. −m: the contacts')
-            skip = "kernel: dependent contact rows"
+            self._skip = "kernel: dependent contact rows"
         self._m_contacts = m
-        if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # after the contacts' rows
-            m = self._write_added(state, dt, m)
+        if self.hard_tasks or self.extra_equalities or self.extra_constraints:  # rows no compiled body writes
+            ctx = self._ctx
+            ctx.state, ctx.dt = state, dt
+            for con in (*self.hard_tasks, *self.extra_equalities):  # after the contacts' rows
+                if con.enabled:
+                    con.rows = slice(m, m + con.dim)
+                    con.write(ctx, self._A[m:m + con.dim], self._b[m:m + con.dim], None)
+                    m += con.dim
+            for con in self.extra_constraints:
+                con.write(ctx, self._C[con.rows], self._l[con.rows], self._u[con.rows])
         self._m = m
         if self._fast:
             self.chain.compiled.max_iterations = self.kernel_max_iterations
@@ -519,19 +472,19 @@ class InverseDynamicsQP:
         if qp is None:  # views of the buffers, one per equality row count (the buffers live until _new_buffers)
             qp = self._qp_views[m] = QPData(self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
                                             self._lb, self._ub)
-        return qp, skip
+        return qp
 
     def nonfinite_inputs(self) -> list[tuple[str, float]]:
-        """``(task:<name>, nan)`` for every task whose error (at the last assembly), weights or acceleration
-        feed-forward are not finite — e.g. a target or weight array written in place with a NaN."""
+        """:func:`nonfinite_references` of the QP's weighted and hard tasks."""
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
-    def _guard_full(self, state: DynamicsState, sol: IDSolution, qp: tuple) -> IDSolution:
+    def _guard_full(self, state: DynamicsState, sol: IDCommand, qp: tuple) -> IDCommand:
         """``sol`` (a full-QP answer of the chain to ``qp``) when it passes the output check; one failing it by at
-        most :data:`OUTPUT_REFINE_RANGE` is refined (:meth:`wbc.solvers.fallback.FallbackChain.refine`) before the
-        chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate passes."""
+        most :data:`~wbc.solvers.base.POLISH_RANGE` is refined (:meth:`~wbc.solvers.fallback.FallbackChain.refine`)
+        before the chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate
+        passes."""
         viol = self.verify(state, sol)
-        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=OUTPUT_REFINE_RANGE)
+        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=POLISH_RANGE)
                 and thread_time() < self.chain.retry_deadline):
             refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp,
                                         lambda x, solver: self._candidate(state, sol, x, solver), sol.path.solver)
@@ -543,14 +496,13 @@ class InverseDynamicsQP:
             raise _output_check_error(sol, viol)
         return sol
 
-    def _candidate(self, state: DynamicsState, sol: IDSolution, x: np.ndarray, solver: str | None):
+    def _candidate(self, state: DynamicsState, sol: IDCommand, x: np.ndarray, solver: str | None):
         """The solution of a refined candidate ``x`` of ``sol`` (``solver`` None: polished) if it passes, else None."""
-        cand = self.solution_from(state, x, timings=sol.timings)
-        cand.path = sol.path if solver is None else TickPath("general", solver)
-        cand.reason = f"{sol.reason or 'output check'} → {'polished' if solver is None else solver}"
+        cand = self.solution_from(state, x, sol.timings, sol.path if solver is None else TickPath("general", solver),
+                                  f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}")
         return None if self.verify(state, cand) else cand
 
-    def verify(self, state: DynamicsState, sol: IDSolution, *, relaxed: bool = False,
+    def verify(self, state: DynamicsState, sol: IDCommand, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
         """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
         relative tolerance ``tol`` (default the backend's), without the torque limits when ``relaxed``. Returns
@@ -586,9 +538,11 @@ class InverseDynamicsQP:
         conflicts, _ = diagnose(A, b, C, l, u, lb, ub, eq, ineq, box, tol=tol)
         return conflicts
 
-    def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None) -> IDSolution:
-        """:class:`IDSolution` of a QP solution x (n,) at ``state`` (:func:`~wbc.formulations.idkernel.id_command`),
-        from the matrices and contact data of the last assembly at this state."""
+    def solution_from(self, state: DynamicsState, x: np.ndarray, timings: dict | None = None,
+                      path: TickPath | None = None, reason: str = "") -> IDCommand:
+        """:class:`IDCommand` of a QP solution x (n,) at ``state`` (:func:`~wbc.formulations.idkernel.id_command`),
+        from the matrices and contact data of the last assembly at this state, with ``path`` and ``path_reason`` =
+        ``reason``."""
         nv = self.nv
         x = np.array(x, dtype=float)  # a fresh contiguous copy: dv and forces are views of it
         rows = self._rows
@@ -599,8 +553,8 @@ class InverseDynamicsQP:
             self._id_command = id_command if CHECK_TYPES else specialise(id_command, *args)
         residual = self._id_command(*args)
         wrenches = {c.name: wrench[k] for k, c in enumerate(self.contacts)}
-        return IDSolution(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
-                          timings=timings or {})
+        return IDCommand(dv=x[:nv], forces=x[nv:], tau=tau, wrenches=wrenches, dynamics_residual=float(residual),
+                         timings=timings or {}, path=path, path_reason=reason)
 
     @property
     def contact_jacobian_transpose(self) -> np.ndarray:
@@ -608,7 +562,7 @@ class InverseDynamicsQP:
         return self._JcT
 
 
-def _output_check_error(sol: IDSolution, viol: list[tuple[str, float]]) -> SolverError:
+def _output_check_error(sol: IDCommand, viol: list[tuple[str, float]]) -> SolverError:
     """The SolverError of a solution that fails the output check (:meth:`InverseDynamicsQP.verify`'s ``viol``)."""
     return SolverError(f"{sol.path} returned a command that fails the output check: "
                        + ", ".join(f"{n} ({v:.3g})" for n, v in viol))

@@ -29,35 +29,24 @@ class IDProblemRows:
 
     def __init__(self, qp):
         nv, nc = qp.nv, len(qp.contacts)
-        self.names = [c.name for c in qp.contacts]
         # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
         self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
         self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
-        self.Gc[:] = np.array([c.force_map() for c in qp.contacts]).reshape(nc, 6, 12)
         # per contact: its views of Jc, Gc, Rc, cdrift, ckd (an Ellipsis assignment into a view is the cheapest copy)
         self._contact_views = [(c, self.Jc[i], self.Gc[i], self.Rc[i], self.cdrift[i], self.ckd[i:i + 1])
                                for i, c in enumerate(qp.contacts)]
         self.active = np.zeros(nc, dtype=np.bool_)
         self.contacts = IDContactData(self.cbuf, self.active)
-        self.Hw = np.zeros((nv, nv))  # task_cost workspace
-        self.gw = np.zeros(nv)
-        self.gram = np.zeros((6 * nc, 6 * nc))  # contact_rows_well_conditioned workspace
-        self.gram_y = np.zeros(6 * nc)
-        self.layout: tuple | None = None  # none yet: InverseDynamicsQP lays the task rows out at construction
-        self.entries: list = []
-        self.tasks: tuple = ()
         self._rotations: tuple = (None, [])
+        self.relayout(qp)
 
     def relayout(self, qp) -> None:
         """Lay the task rows out for ``qp.tasks`` (dense rows first, then the posture rows)."""
         dense = [t for t in qp.tasks if not isinstance(t.task, PostureTask)]
         posture = [t for t in qp.tasks if isinstance(t.task, PostureTask)]
-        mt = sum(t.dim for t in dense)
-        mp = sum(t.dim for t in posture)
-        self.Jt = np.zeros((mt, qp.nv))
-        self.R = np.zeros((7, mt + mp))
-        pidx = [t.task.rows for t in posture]
-        self.pidx = np.concatenate(pidx).astype(np.int64) if pidx else np.zeros(0, np.int64)
+        mt, mp = sum(t.dim for t in dense), sum(t.dim for t in posture)
+        self.Jt, self.R = np.zeros((mt, qp.nv)), np.zeros((7, mt + mp))
+        self.pidx = np.concatenate([np.zeros(0, np.int64), *(t.task.rows for t in posture)]).astype(np.int64)
         self.entries = []
         k = 0
         for ref in dense + posture:

@@ -366,17 +366,18 @@ class IDOutputCheck:
         self._buffers = IDOutputBuffers(force_lb, force_ub, np.zeros((nc, 16, 12)), np.zeros(nc, np.bool_),
                                         np.zeros((2 * nc + 2, 2)))
         self._friction_rows = list(self._buffers.friction)  # (16, 12) views, one per contact
+        self._names = [f"{kind}:{c.name}" for c in contacts for kind in ("unilaterality", "friction")] + [
+            "torque_limits", "floating_base_dynamics"]  # the rows of out
         self._no_joints = np.zeros(0, np.int64)
         self._kernel = None  # violations' compiled call, specialised at its first call
 
     def violations(self, h: np.ndarray, sol, tol: float, relaxed: bool) -> list[tuple[str, float]] | None:
         """[(constraint name, violation in its units)] of the solution ``sol`` (an
-        :class:`~wbc.formulations.acceleration.IDSolution`) at a state of nonlinear effects ``h`` (nv,), largest
+        :class:`~wbc.formulations.acceleration.IDCommand`) at a state of nonlinear effects ``h`` (nv,), largest
         scaled first, at relative tolerance ``tol``; the torque limits skipped when ``relaxed``. [] when it passes;
         None when an entry of the solution is not finite."""
         active, out = self._buffers.active, self._buffers.out
-        contacts = self.contacts
-        for k, c in enumerate(contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
+        for k, c in enumerate(self.contacts):  # copies: a contact's friction rows are rewritten in place when μ is set
             self._friction_rows[k][...] = c.friction_matrix
             active[k] = c.active
         tl = self.torque_limits
@@ -390,8 +391,5 @@ class IDOutputCheck:
         status = kernel(*args)
         if status <= 0:
             return None if status < 0 else []
-        names = [f"{kind}:{c.name}" for c in contacts for kind in ("unilaterality", "friction")]  # rows of out
-        found = [(float(out[r, 0]), name, float(out[r, 1]))  # (scaled, name, violation)
-                 for r, name in enumerate((*names, "torque_limits", "floating_base_dynamics")) if out[r, 0] > tol]
-        found.sort(key=lambda item: -item[0])
-        return [(name, v) for _, name, v in found]
+        found = sorted((r for r in range(len(self._names)) if out[r, 0] > tol), key=lambda r: -out[r, 0])
+        return [(self._names[r], float(out[r, 1])) for r in found]
