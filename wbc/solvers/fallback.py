@@ -7,7 +7,7 @@ backend; for a DAQP backend (``daqp``, ``fast``): 1. the **attempt**, one DAQP c
 eliminated (:func:`~wbc.solvers.independent.solve_pinned_reduced`); 5. the backend's **retries** (its cold calls).
 A tick whose counted work cut step 3 or 4 on a set with a point resumes there next tick (**resumed scaled call**,
 **resumed quadprog**; failing, that tick checks the hard sets and ends). Any other backend gets a **second opinion**
-(:func:`~wbc.solvers.independent.second_opinion`). :meth:`FallbackChain.refine` repairs an answer failing the
+(:meth:`FallbackChain._solve_checked`). :meth:`FallbackChain.refine` repairs an answer failing the
 caller's output check; the relaxed QP has a shorter ladder (:meth:`FallbackChain.solve_relaxed`). Every step after
 the attempt is bounded by the tick's counted work (DAQP iterations) or, with a clock guard, by CPU time. Rules,
 factors, measurements: docs/inverse-dynamics-controller.md, "The fallback chain".
@@ -26,7 +26,7 @@ from wbc.solvers.base import QPBackend
 from wbc.solvers.compiled_id import KERNEL_ITERATION_COST, CompiledIDSolver
 from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
                               DaqpBackend)
-from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
+from wbc.solvers.independent import hard_set_check, solve_pinned_reduced
 from wbc.solvers.qp_data import QPData, QPSolution
 
 __all__ = ["DAQP_CALL_WORK", "FallbackChain", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST", "QUADPROG_SIZE",
@@ -457,8 +457,12 @@ class FallbackChain:
         return False
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails, the second opinion
-        (unless :attr:`second_opinion_enabled` is False). Raises the backend's SolverError."""
+        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails (unless
+        :attr:`second_opinion_enabled` is False), a second opinion of two active-set solvers: quadprog
+        (:func:`~wbc.solvers.independent.solve_pinned_reduced`), then one DAQP call. A proximal method's infeasibility
+        test (ProxQP: Bambade et al., "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS
+        2022) can fire on feasible QPs with nearly dependent equality rows, where an active-set factorisation answers
+        exactly. Raises the backend's SolverError when neither answers."""
         backend = self.backend
         try:
             return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
@@ -473,9 +477,12 @@ class FallbackChain:
             self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
             self._daqp_check.cold_retry = False
         self._daqp_check.work = work
-        x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, backend.tolerance, daqp_backend=self._daqp_check)
+        x, solver = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance), "quadprog"
         if x is None:
-            raise first
+            try:
+                x, solver = self._daqp_check.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
+            except SolverError:
+                raise first from None
         self.second_opinion_solves += 1
         return QPSolution(x, solver, "second opinion")
 
