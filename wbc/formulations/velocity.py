@@ -32,7 +32,6 @@ from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
 from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, kinematic_views,
                                               rows_pack, task_rows, weighted_rows)
-from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
@@ -255,8 +254,6 @@ class VelocityQP:
             if first:  # the first box meets ±inf only
                 lb[sel], ub[sel] = c.compute(config, dt)
                 first = False
-            elif isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
-                clip_box_into(lb, ub, sel.start, *c.compute(config, dt))  # the generic clip, compiled on a block
             else:
                 c.intersect_into(config, dt, lb, ub)  # in place: the box's own intersection (compiled where it has one)
             if record is not None:

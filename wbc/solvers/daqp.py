@@ -307,14 +307,10 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _solve_dual(self, H, g):
         x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
-        if x is None and self._dual is not None and self.cold_retry and not self.budget_capped:
-            # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
-            # per solve)
-            x, info = self._oneshot(H, g)
         self.last_iterations += int(info["iterations"])
         if x is None:
+            self._cold_ran = self._dual is None  # a cold call failed (_solve_cold does not repeat it)
             self._dual = None
-            self._cold_ran = True  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual

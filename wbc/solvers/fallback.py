@@ -185,9 +185,7 @@ class FallbackChain:
         raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
                           f"the relaxed hard-set check and the backend's retries)")
 
-    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain"). Each stage's
-    # steps get the DAQP iterations :meth:`_left` answers: counted, what keeps :attr:`tick_work` below its _WORK
-    # factor of budgets; with a clock guard, the CPU time left before its _END factor of budgets after the tick's start.
+    # The rules' factors, in tick budgets (:meth:`_left`; docs/inverse-dynamics-controller.md, "The fallback chain").
     #: the attempt's DAQP calls end by this many budgets (clock guard)
     ATTEMPT_END = 1.25
     #: the hard-set checks, the scaled call and the retries
@@ -214,19 +212,16 @@ class FallbackChain:
                 "RELAXED": (self.RELAXED_WORK, self.RELAXED_END)}[stage]
 
     def _left(self, stage: str) -> float:
-        """DAQP iterations left for ``stage`` (``math.inf``: no limit): below its _WORK factor of budgets of
-        :attr:`tick_work`, or (clock guard) the CPU time left before its _END factor of budgets at
-        :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration."""
+        """DAQP iterations left for ``stage`` (``math.inf``: no limit): :attr:`tick_work` below its _WORK factor of
+        budgets, or (clock guard) the CPU time before its _END factor at DAQP_ITERATION_COST per iteration."""
         work, end = self._factors(stage)
         if self.tick_clock is None:
             return work * self.tick_work_iterations - self.tick_work
         return (self._deadline(end) - thread_time()) / DAQP_ITERATION_COST
 
     def _quadprog_within(self, qp: QPData, stage: str) -> tuple[np.ndarray | None, str]:
-        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` when its work (:func:`quadprog_work`, or
-        with a clock guard :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''), its work
-        counted and its CPU time noted in :attr:`quadprog_cost`; else (None, why not), counted in ``quadprog_skipped``
-        and ``budget_cut``."""
+        """(solve_pinned_reduced's x or None, '') of ``qp`` when its work (:func:`quadprog_work`; clock guard:
+        :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``, counted; else (None, why not), a budget cut."""
         work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
         if work > self._left(stage):
             self.quadprog_skipped += 1
@@ -256,9 +251,8 @@ class FallbackChain:
         return verdict
 
     def _retries(self, qp: QPData, first: SolverError, stage: str, done: str = "") -> tuple:
-        """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their
-        :attr:`RETRY_CALLS` calls capped at its share of what :meth:`_left` leaves ``stage``; less left than their
-        least counted work: ``budget_cut``, SolverError (``first`` extended by ``done``, the steps before)."""
+        """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their RETRY_CALLS calls
+        capped at its share of what :meth:`_left` leaves ``stage``; too little left: a budget cut, SolverError."""
         if not self.backend.cold_retry:
             raise first
         left = self._left(stage)
@@ -272,11 +266,9 @@ class FallbackChain:
         return self._call(qp, "retries", calls, self._deadline(self._factors(stage)[1]))
 
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
-        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
-        :meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled`), its DAQP calls capped at ``calls`` (None: no cap) and
-        ending by the CPU time ``deadline`` (None: as set), its work counted: the retries at ``calls`` per call
-        (nothing when None), the others as they ran. (QPSolution, None), (None, SolverError) or, for a scaled call
-        that found no solution, (None, None)."""
+        """``backend.solve`` of ``qp`` (``solve_scaled`` for a ``... scaled call``; cold retries only in ``retries``),
+        its calls capped at ``calls`` (None: no cap) and ending by ``deadline`` (None: as set), its work counted.
+        (QPSolution, None), (None, SolverError) or, for a scaled call that found no solution, (None, None)."""
         backend = self.backend
         retry = backend.cold_retry
         backend.cold_retry = retry and step == "retries"
@@ -432,8 +424,7 @@ class FallbackChain:
     def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None = None,
                          *, checked: bool = False) -> bool:
         """The hard-set checks of a failed full QP: the full set (unless ``checked``: its verdict ``full``), then the
-        relaxed one (:attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`). A set proved empty raises SolverError
-        (``first`` extended). True: the full set has a point."""
+        relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a point."""
         _, _, A, b, C, l, u, lb, ub = qp
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
