@@ -739,7 +739,7 @@ def test_proxqp_iteration_cap_is_a_failed_solve_never_an_unconverged_answer():
 
     from wbc.exceptions import InvalidInputError, SolverError
     from wbc.solvers import ProxQPBackend
-    from wbc.solvers.proxqp import PROXQP_MAX_ITER
+    from wbc.solvers.registry import PROXQP_MAX_ITER
 
     rng = np.random.default_rng(0)
     n = 8
