@@ -214,9 +214,8 @@ class VelocityQP:
         return H, g, A, b, C, l, u, self._lb, self._ub
 
     def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
-        """The box argument of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
-        layout: its constant boxes and one :class:`~wbc.constraints.JointPositionLimit` after them, else
-        ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
+        """The compiled tick's box argument for the current layout: its constant boxes and one JointPositionLimit
+        after them, else ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
         if self._const_prefix is None:
             self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
         rest = self._box_sel[self._const_prefix:]

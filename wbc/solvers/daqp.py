@@ -120,9 +120,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         return limit
 
     def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
-        """One call of DAQP's one-shot ``daqp.solve`` on the constraints formed by :meth:`_daqp_form`: the settings,
-        ``extra`` over them, at most :meth:`call_limit` iterations; timed (:meth:`_timed`), its stop noted
-        (:meth:`_note_exit`; not with ``note`` False). (x, or None when DAQP found none; DAQP's info dict)."""
+        """One ``daqp.solve`` on the formed constraints (settings, ``extra`` over them, :meth:`call_limit`), timed, its
+        stop noted unless ``note`` is False: (x, or None when DAQP found none; DAQP's info dict)."""
         limit = self.call_limit()
         x, _, exitflag, info = self._timed(lambda: self._daqp.solve(
             H, g, self._G, self._upper, self._lower, self._sense, **{**self.settings, "iter_limit": limit, **extra}))
@@ -131,9 +130,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         return (x if exitflag >= 1 else None), info
 
     def _timed(self, call) -> tuple:
-        """``call()`` (a DAQP solve: (x, fval, exitflag, info)), its proximal iterations counted; under a finite
-        ``deadline`` its CPU time per iteration updates ``measured_iteration_cost`` (an iteration's cost varies
-        several-fold on one QP: later calls are sized at what the solver costs now)."""
+        """``call()`` (a DAQP solve), its proximal iterations counted; under a deadline its CPU time per iteration
+        updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at it)."""
         timed = self.deadline != math.inf
         t0 = thread_time() if timed else 0.0
         out = call()
