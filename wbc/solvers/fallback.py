@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 
 from wbc.exceptions import SolverError
+from wbc.solvers.base import QPBackend
 from wbc.solvers.compiled_id import KERNEL_ITERATION_COST, CompiledIDSolver
 from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
                               DaqpBackend)
@@ -76,8 +77,7 @@ class FallbackChain:
     """The fallback ladder (module docstring) over one backend, with its per-tick budget and counters.
 
     Args:
-        backend: the :class:`~wbc.solvers.base.QPBackend` (its calls unconfirmed: ``confirm=False``; an independent
-            re-solve costs many control periods).
+        backend: a :class:`~wbc.solvers.base.QPBackend`, or any object with a ``solve`` method (its failure stands).
         compiled: the :class:`~wbc.solvers.compiled_id.CompiledIDSolver` asked before it, or None.
 
     Attributes (the tick's budget, set by the controller):
@@ -281,7 +281,7 @@ class FallbackChain:
                 x = backend.solve_scaled(*qp)
                 self.scaled_solves += x is not None
                 return (None if x is None else QPSolution(x, backend.name, step)), None
-            return QPSolution(backend.solve(*qp, confirm=False), backend.name, step), None
+            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
         except SolverError as exc:
             return None, exc
         finally:
@@ -305,6 +305,11 @@ class FallbackChain:
         """start + factor × budget of :attr:`tick_clock` (``math.inf`` without one)."""
         clock = self.tick_clock
         return math.inf if clock is None else clock[0] + factor * clock[1]
+
+    @property
+    def _confirm_kw(self) -> dict:
+        # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
+        return {"confirm": False} if isinstance(self.backend, QPBackend) else {}
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
@@ -443,17 +448,17 @@ class FallbackChain:
         return False
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP on the QP; when it fails (unless :attr:`second_opinion_enabled` is False), a
-        second opinion of two active-set solvers: quadprog (:func:`~wbc.solvers.independent.solve_pinned_reduced`),
-        then one DAQP call. A proximal method's infeasibility test (ProxQP: Bambade et al., "PROX-QP: Yet another
-        quadratic programming solver for robotics and beyond", RSS 2022) can fire on feasible QPs with nearly
-        dependent equality rows, where an active-set factorisation answers exactly. Raises the backend's SolverError
-        when neither answers."""
+        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails (unless
+        :attr:`second_opinion_enabled` is False), a second opinion of two active-set solvers: quadprog
+        (:func:`~wbc.solvers.independent.solve_pinned_reduced`), then one DAQP call. A proximal method's infeasibility
+        test (ProxQP: Bambade et al., "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS
+        2022) can fire on feasible QPs with nearly dependent equality rows, where an active-set factorisation answers
+        exactly. Raises the backend's SolverError when neither answers."""
         backend = self.backend
         try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), backend.name, "attempt")
+            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
         except SolverError as exc:
-            if not self.second_opinion_enabled:
+            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
                 raise
             first = exc
         work = backend.work
@@ -479,14 +484,15 @@ class FallbackChain:
         (``solver`` None: the polished one), else None. Returns the first accepted candidate, or None."""
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
-        if backend.work is not None:
-            backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
-        xp = backend.polish(x, A, b, C, l, u, lb, ub)
-        if xp is not None:
-            cand = accept(xp, None)
-            if cand is not None:
-                self.output_polished += 1
-                return cand
+        if isinstance(backend, QPBackend):
+            if backend.work is not None:
+                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
+            xp = backend.polish(x, A, b, C, l, u, lb, ub)
+            if xp is not None:
+                cand = accept(xp, None)
+                if cand is not None:
+                    self.output_polished += 1
+                    return cand
         if answered_by == "quadprog":
             return None
         xq = self._quadprog_within(qp, "QUADPROG")[0]  # the same gate as the failure path's quadprog (_stages)
