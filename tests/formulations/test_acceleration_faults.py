@@ -677,21 +677,23 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     """A QP recorded from the realistic-plant humanoid15 walk (``walk_options_for``: ProxQP, eps_abs 1e-7; seed 7,
     both soles in contact, nothing pinned, legs without hip yaw: the two soles' rows nearly dependent) that ProxQP
     reports infeasible from a cold start although HiGHS finds its hard set feasible; the controller's second
-    opinion (``wbc.solvers.independent.second_opinion``: quadprog, then DAQP) solves it. Oracles: every row to 1e-6
+    opinion (``FallbackChain`` over ProxQP: quadprog, then DAQP) solves it. Oracles: every row to 1e-6
     (scaled by max(1, |rhs|)) and the KKT conditions computed here."""
     from pathlib import Path
 
     from wbc.exceptions import SolverError
     from wbc.solvers import ProxQPBackend
-    from wbc.solvers.independent import second_opinion
+    from wbc.solvers.fallback import FallbackChain
+    from wbc.solvers.qp_data import QPData
 
     d = dict(np.load(Path(__file__).resolve().parents[1] / "fixtures" / "id_proxqp_false_infeasible_humanoid15.npz"))
     H, g, A, b, C, l, u, lb, ub = (d[k] for k in ("H", "g", "A", "b", "C", "l", "u", "lb", "ub"))
     assert highs_feasible(A, b, C, l, u, lb, ub)
     with pytest.raises(SolverError):
         ProxQPBackend(eps_abs=1e-7).solve(H, g, A, b, C, l, u, lb, ub, confirm=False)
-    x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, 1e-6)
-    assert x is not None and solver in ("quadprog", "daqp")
+    chain = FallbackChain(ProxQPBackend(eps_abs=1e-7))
+    x, solver, step = chain.solve(QPData(H, g, A, b, C, l, u, lb, ub))
+    assert step == "second opinion" and solver in ("quadprog", "daqp")
     assert np.abs(A @ x - b).max() <= 1e-6 * max(1.0, np.abs(b).max())
     cx = C @ x
     assert np.all(cx <= u + 1e-6 * np.maximum(1.0, np.abs(np.where(np.isfinite(u), u, 0.0))))
@@ -702,7 +704,9 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     l2 = l.copy()
     l2[np.flatnonzero(np.isfinite(u))[0]] = 1e9
     assert not highs_feasible(A, b, C, l2, u, lb, ub)
-    assert second_opinion(H, g, A, b, C, l2, u, lb, ub, 1e-6) == (None, "")
+    with pytest.raises(SolverError):
+        chain.solve(QPData(H, g, A, b, C, l2, u, lb, ub))
+    assert chain.second_opinion_solves == 1
 
 
 def test_id_proxqp_failure_gets_a_second_opinion(robots):
@@ -735,7 +739,7 @@ def test_proxqp_iteration_cap_is_a_failed_solve_never_an_unconverged_answer():
 
     from wbc.exceptions import InvalidInputError, SolverError
     from wbc.solvers import ProxQPBackend
-    from wbc.solvers.proxqp import PROXQP_MAX_ITER
+    from wbc.solvers.registry import PROXQP_MAX_ITER
 
     rng = np.random.default_rng(0)
     n = 8

@@ -59,7 +59,7 @@ def test_infeasible_qp_is_confirmed_and_reports_tested_norm():
     with pytest.raises(SolverError, match="not confirmed") as info:
         backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
     assert not isinstance(info.value, InfeasibleProblemError)
-    assert backend.last_confirmation.startswith("nobody")
+    assert backend.last_confirmers == []  # none ran
     # the tick's count spent before the first independent solver could run: unconfirmed as well (it was an
     # InfeasibleProblemError "confirmed by no independent solver (tick budget spent: infeasibility not confirmed)")
     backend.independent = ("proxqp", "quadprog")
@@ -67,7 +67,7 @@ def test_infeasible_qp_is_confirmed_and_reports_tested_norm():
     with pytest.raises(SolverError, match="not confirmed") as info:
         backend.solve(H, g, A, b, e, np.zeros(0), np.zeros(0), -np.ones(2) * 10, np.ones(2) * 10)
     assert not isinstance(info.value, InfeasibleProblemError)
-    assert "budget spent" in backend.last_confirmation and backend.last_confirmers == []
+    assert backend.last_confirmers == []  # none ran: the count was spent before proxqp (cap 1, 580 solves)
     # within the count, proxqp runs and fails too: confirmed
     backend.work = TickWork()
     with pytest.raises(InfeasibleProblemError, match="confirmed by proxqp"):

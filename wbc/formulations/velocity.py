@@ -32,7 +32,6 @@ from wbc.constraints.limits import JointPositionLimit
 from wbc.constraints.task import TaskConstraint
 from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, KernelBox, form_qp, kinematic_pack, kinematic_views,
                                               rows_pack, task_rows, weighted_rows)
-from wbc.solvers.linalg import clip_box_into
 from wbc.solvers.qp_data import QPData
 from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
@@ -215,9 +214,8 @@ class VelocityQP:
         return H, g, A, b, C, l, u, self._lb, self._ub
 
     def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
-        """The box argument of :func:`~wbc.formulations.velocity_kernel.kinematic_tick_packed` for the current
-        layout: its constant boxes and one :class:`~wbc.constraints.JointPositionLimit` after them, else
-        ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
+        """The compiled tick's box argument for the current layout: its constant boxes and one JointPositionLimit
+        after them, else ``NO_KERNEL_BOX`` (lb, ub assembled here)."""
         if self._const_prefix is None:
             self._intersect_boxes(config, dt)  # the constant boxes' intersection, once per layout
         rest = self._box_sel[self._const_prefix:]
@@ -255,8 +253,6 @@ class VelocityQP:
             if first:  # the first box meets ±inf only
                 lb[sel], ub[sel] = c.compute(config, dt)
                 first = False
-            elif isinstance(sel, slice) and type(c).intersect_into is BoxConstraint.intersect_into:
-                clip_box_into(lb, ub, sel.start, *c.compute(config, dt))  # the generic clip, compiled on a block
             else:
                 c.intersect_into(config, dt, lb, ub)  # in place: the box's own intersection (compiled where it has one)
             if record is not None:

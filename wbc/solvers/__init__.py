@@ -10,11 +10,9 @@ kernels' exit codes and shared linear algebra (:mod:`~wbc.solvers.status`, :mod:
 from __future__ import annotations
 
 from wbc.solvers.base import QPBackend, TickWork
-from wbc.solvers.by_name import QpsolversBackend
 from wbc.solvers.daqp import DaqpBackend
 from wbc.solvers.fast import FastBackend
-from wbc.solvers.proxqp import ProxQPBackend
-from wbc.solvers.registry import DEFAULT_SOLVER, available_solvers, make_backend
+from wbc.solvers.registry import DEFAULT_SOLVER, ProxQPBackend, QpsolversBackend, available_solvers, make_backend
 from wbc.solvers.status import SolverStatus
 
 __all__ = ["DEFAULT_SOLVER", "DaqpBackend", "FastBackend", "ProxQPBackend", "QPBackend", "QpsolversBackend",

@@ -129,9 +129,7 @@ class QPBackend(ABC):
     #: solutions rescued by the independent re-solve; solutions accepted after :meth:`polish`.
     rescues: int = 0
     polished: int = 0
-    #: the independent solvers that also found no solution in the last failure ('' until one); those that ran in the
-    #: last :meth:`confirm`
-    last_confirmation: str = ""
+    #: the independent solvers that ran in the last :meth:`confirm` (and found no solution, when it failed)
     last_confirmers: tuple | list = ()
     #: the current tick's counted work (:class:`TickWork`, shared by a controller's backends), or None: no limit.
     work: "TickWork | None" = None
@@ -168,12 +166,10 @@ class QPBackend(ABC):
             if xc is not None:
                 return xc
         self.last_confirmers = ()
-        x_ind, confirmed = (self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm
-                            else (None, "nobody (independent re-solve skipped: confirm=False)"))
+        x_ind, confirmed = self.confirm(H, g, A, b, C, l, u, lb, ub) if confirm else (None, "")
         if x_ind is not None:
             self.rescues += 1
             return x_ind
-        self.last_confirmation = confirmed
         what = ("found no solution" if not math.isfinite(worst) else
                 f"returned a solution violating constraints by {worst:.3g} (largest row violation, max-norm, "
                 f"scaled by max(1, |rhs|); tolerance {self.tolerance:.3g})")
@@ -254,7 +250,8 @@ class QPBackend(ABC):
         positive definite), each counted in ``work`` while it fits under the cap.
 
         Returns:
-            (x, '') when one of them meets the check of :meth:`solve`, else (None, 'names of the solvers that failed').
+            (x, '') when one of them meets the check of :meth:`solve`, else (None, 'names of the solvers that failed',
+            '' when none ran).
         """
         tried = []
         self.last_confirmers = tried  # the independent solvers that ran (read by solve: confirmed or not)
@@ -264,8 +261,7 @@ class QPBackend(ABC):
             if self.work is not None:
                 cost = _CONFIRM_WORK.get(name, 1)
                 if self.work.solves + cost > self.work.cap:
-                    return None, (", ".join(tried) + " (then the tick's solve count was spent)" if tried else
-                                  "no independent solver (tick budget spent: infeasibility not confirmed)")
+                    return None, ", ".join(tried) + (" (then the tick's solve count was spent)" if tried else "")
                 self.work.solves += cost
             try:
                 if name == "quadprog" and np.linalg.eigvalsh(H)[0] <= 1e-12 * max(1.0, np.abs(H).max()):
@@ -279,8 +275,7 @@ class QPBackend(ABC):
             x = self._checked(x, A, b, C, l, u, lb, ub, counted=False)[0]
             if x is not None:
                 return x, ""
-        return None, ", ".join(tried) or ("no independent solver installed" if self.independent else
-                                          "nobody (no independent solver asked: ``independent`` is empty)")
+        return None, ", ".join(tried)
 
     @staticmethod
     def accepted(x, A, b, C, l, u, lb, ub, tolerance: float) -> np.ndarray | None:

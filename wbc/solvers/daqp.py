@@ -120,9 +120,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         return limit
 
     def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
-        """One call of DAQP's one-shot ``daqp.solve`` on the constraints formed by :meth:`_daqp_form`: the settings,
-        ``extra`` over them, at most :meth:`call_limit` iterations; timed (:meth:`_timed`), its stop noted
-        (:meth:`_note_exit`; not with ``note`` False). (x, or None when DAQP found none; DAQP's info dict)."""
+        """One ``daqp.solve`` on the formed constraints (settings, ``extra`` over them, :meth:`call_limit`), timed, its
+        stop noted unless ``note`` is False: (x, or None when DAQP found none; DAQP's info dict)."""
         limit = self.call_limit()
         x, _, exitflag, info = self._timed(lambda: self._daqp.solve(
             H, g, self._G, self._upper, self._lower, self._sense, **{**self.settings, "iter_limit": limit, **extra}))
@@ -131,9 +130,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         return (x if exitflag >= 1 else None), info
 
     def _timed(self, call) -> tuple:
-        """``call()`` (a DAQP solve: (x, fval, exitflag, info)), its proximal iterations counted; under a finite
-        ``deadline`` its CPU time per iteration updates ``measured_iteration_cost`` (an iteration's cost varies
-        several-fold on one QP: later calls are sized at what the solver costs now)."""
+        """``call()`` (a DAQP solve), its proximal iterations counted; under a deadline its CPU time per iteration
+        updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at it)."""
         timed = self.deadline != math.inf
         t0 = thread_time() if timed else 0.0
         out = call()
@@ -307,14 +305,10 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _solve_dual(self, H, g):
         x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
-        if x is None and self._dual is not None and self.cold_retry and not self.budget_capped:
-            # the warm start may be what failed: once more, cold (not for a trial with ``cold_retry`` off: one call
-            # per solve)
-            x, info = self._oneshot(H, g)
         self.last_iterations += int(info["iterations"])
         if x is None:
+            self._cold_ran = self._dual is None  # a cold call failed (_solve_cold does not repeat it)
             self._dual = None
-            self._cold_ran = True  # this problem's cold solve failed (_solve_cold: not repeated)
             return None
         self._dual = np.array(info["lam"])
         self.last_multipliers = self._dual

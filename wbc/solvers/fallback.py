@@ -7,7 +7,7 @@ backend; for a DAQP backend (``daqp``, ``fast``): 1. the **attempt**, one DAQP c
 eliminated (:func:`~wbc.solvers.independent.solve_pinned_reduced`); 5. the backend's **retries** (its cold calls).
 A tick whose counted work cut step 3 or 4 on a set with a point resumes there next tick (**resumed scaled call**,
 **resumed quadprog**; failing, that tick checks the hard sets and ends). Any other backend gets a **second opinion**
-(:func:`~wbc.solvers.independent.second_opinion`). :meth:`FallbackChain.refine` repairs an answer failing the
+(:meth:`FallbackChain._solve_checked`). :meth:`FallbackChain.refine` repairs an answer failing the
 caller's output check; the relaxed QP has a shorter ladder (:meth:`FallbackChain.solve_relaxed`). Every step after
 the attempt is bounded by the tick's counted work (DAQP iterations) or, with a clock guard, by CPU time. Rules,
 factors, measurements: docs/inverse-dynamics-controller.md, "The fallback chain".
@@ -26,7 +26,7 @@ from wbc.solvers.base import QPBackend
 from wbc.solvers.compiled_id import KERNEL_ITERATION_COST, CompiledIDSolver
 from wbc.solvers.daqp import (DAQP_ITERATION_COST, ITERATION_LIMIT, MEASURED_COST_DECAY, MIN_CALL_ITERATIONS,
                               DaqpBackend)
-from wbc.solvers.independent import hard_set_check, second_opinion, solve_pinned_reduced
+from wbc.solvers.independent import hard_set_check, solve_pinned_reduced
 from wbc.solvers.qp_data import QPData, QPSolution
 
 __all__ = ["DAQP_CALL_WORK", "FallbackChain", "PROXIMAL_ITERATION_WORK", "QUADPROG_COST", "QUADPROG_SIZE",
@@ -185,9 +185,7 @@ class FallbackChain:
         raise SolverError(f"{first} (a DAQP call stopped at the tick's deadline, or no time or counted work left for "
                           f"the relaxed hard-set check and the backend's retries)")
 
-    # The rules' factors, in tick budgets (docs/inverse-dynamics-controller.md, "The fallback chain"). Each stage's
-    # steps get the DAQP iterations :meth:`_left` answers: counted, what keeps :attr:`tick_work` below its _WORK
-    # factor of budgets; with a clock guard, the CPU time left before its _END factor of budgets after the tick's start.
+    # The rules' factors, in tick budgets (:meth:`_left`; docs/inverse-dynamics-controller.md, "The fallback chain").
     #: the attempt's DAQP calls end by this many budgets (clock guard)
     ATTEMPT_END = 1.25
     #: the hard-set checks, the scaled call and the retries
@@ -214,19 +212,16 @@ class FallbackChain:
                 "RELAXED": (self.RELAXED_WORK, self.RELAXED_END)}[stage]
 
     def _left(self, stage: str) -> float:
-        """DAQP iterations left for ``stage`` (``math.inf``: no limit): below its _WORK factor of budgets of
-        :attr:`tick_work`, or (clock guard) the CPU time left before its _END factor of budgets at
-        :data:`~wbc.solvers.daqp.DAQP_ITERATION_COST` per iteration."""
+        """DAQP iterations left for ``stage`` (``math.inf``: no limit): :attr:`tick_work` below its _WORK factor of
+        budgets, or (clock guard) the CPU time before its _END factor at DAQP_ITERATION_COST per iteration."""
         work, end = self._factors(stage)
         if self.tick_clock is None:
             return work * self.tick_work_iterations - self.tick_work
         return (self._deadline(end) - thread_time()) / DAQP_ITERATION_COST
 
     def _quadprog_within(self, qp: QPData, stage: str) -> tuple[np.ndarray | None, str]:
-        """:func:`~wbc.solvers.independent.solve_pinned_reduced` of ``qp`` when its work (:func:`quadprog_work`, or
-        with a clock guard :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``: (x or None, ''), its work
-        counted and its CPU time noted in :attr:`quadprog_cost`; else (None, why not), counted in ``quadprog_skipped``
-        and ``budget_cut``."""
+        """(solve_pinned_reduced's x or None, '') of ``qp`` when its work (:func:`quadprog_work`; clock guard:
+        :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``, counted; else (None, why not), a budget cut."""
         work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
         if work > self._left(stage):
             self.quadprog_skipped += 1
@@ -256,9 +251,8 @@ class FallbackChain:
         return verdict
 
     def _retries(self, qp: QPData, first: SolverError, stage: str, done: str = "") -> tuple:
-        """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their
-        :attr:`RETRY_CALLS` calls capped at its share of what :meth:`_left` leaves ``stage``; less left than their
-        least counted work: ``budget_cut``, SolverError (``first`` extended by ``done``, the steps before)."""
+        """:meth:`_call` of the backend's retries (``first`` raised when it has none), each of their RETRY_CALLS calls
+        capped at its share of what :meth:`_left` leaves ``stage``; too little left: a budget cut, SolverError."""
         if not self.backend.cold_retry:
             raise first
         left = self._left(stage)
@@ -272,11 +266,9 @@ class FallbackChain:
         return self._call(qp, "retries", calls, self._deadline(self._factors(stage)[1]))
 
     def _call(self, qp: QPData, step: str, calls: int | None, deadline: float | None = None) -> tuple:
-        """``backend.solve`` of ``qp`` (cold retries only for the ``retries`` step; a step named ``... scaled call``:
-        :meth:`~wbc.solvers.daqp.DaqpBackend.solve_scaled`), its DAQP calls capped at ``calls`` (None: no cap) and
-        ending by the CPU time ``deadline`` (None: as set), its work counted: the retries at ``calls`` per call
-        (nothing when None), the others as they ran. (QPSolution, None), (None, SolverError) or, for a scaled call
-        that found no solution, (None, None)."""
+        """``backend.solve`` of ``qp`` (``solve_scaled`` for a ``... scaled call``; cold retries only in ``retries``),
+        its calls capped at ``calls`` (None: no cap) and ending by ``deadline`` (None: as set), its work counted.
+        (QPSolution, None), (None, SolverError) or, for a scaled call that found no solution, (None, None)."""
         backend = self.backend
         retry = backend.cold_retry
         backend.cold_retry = retry and step == "retries"
@@ -432,8 +424,7 @@ class FallbackChain:
     def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None = None,
                          *, checked: bool = False) -> bool:
         """The hard-set checks of a failed full QP: the full set (unless ``checked``: its verdict ``full``), then the
-        relaxed one (:attr:`relaxed_set_feasible`, :attr:`relaxed_bounds`). A set proved empty raises SolverError
-        (``first`` extended). True: the full set has a point."""
+        relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a point."""
         _, _, A, b, C, l, u, lb, ub = qp
         if not checked:
             full = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
@@ -457,8 +448,12 @@ class FallbackChain:
         return False
 
     def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
-        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails, the second opinion
-        (unless :attr:`second_opinion_enabled` is False). Raises the backend's SolverError."""
+        """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails (unless
+        :attr:`second_opinion_enabled` is False), a second opinion of two active-set solvers: quadprog
+        (:func:`~wbc.solvers.independent.solve_pinned_reduced`), then one DAQP call. A proximal method's infeasibility
+        test (ProxQP: Bambade et al., "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS
+        2022) can fire on feasible QPs with nearly dependent equality rows, where an active-set factorisation answers
+        exactly. Raises the backend's SolverError when neither answers."""
         backend = self.backend
         try:
             return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
@@ -473,9 +468,12 @@ class FallbackChain:
             self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
             self._daqp_check.cold_retry = False
         self._daqp_check.work = work
-        x, solver = second_opinion(H, g, A, b, C, l, u, lb, ub, backend.tolerance, daqp_backend=self._daqp_check)
+        x, solver = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance), "quadprog"
         if x is None:
-            raise first
+            try:
+                x, solver = self._daqp_check.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
+            except SolverError:
+                raise first from None
         self.second_opinion_solves += 1
         return QPSolution(x, solver, "second opinion")
 

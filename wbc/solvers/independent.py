@@ -1,18 +1,18 @@
 """Independent re-solves and checks of a QP (:mod:`wbc.solvers.qp_data`) another backend reported infeasible: quadprog
-with the pinned variables and the equality rows eliminated (:func:`solve_pinned_reduced`), a second opinion of two
-active-set solvers (:func:`second_opinion`) and the feasibility of the constraints alone (:func:`hard_set_check`).
+with the pinned variables and the equality rows eliminated (:func:`solve_pinned_reduced`) and the feasibility of the
+constraints alone (:func:`hard_set_check`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from wbc.exceptions import InvalidInputError, SolverError
+from wbc.exceptions import InvalidInputError
 from wbc.solvers.base import QPBackend
-from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT, DaqpBackend
+from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT
 from wbc.solvers.qp_data import QPData
 
-__all__ = ["hard_set_check", "second_opinion", "solve_pinned_reduced"]
+__all__ = ["hard_set_check", "solve_pinned_reduced"]
 
 
 def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, details: bool = False):
@@ -123,32 +123,6 @@ def _nullspace_solve(H, g, A, b, C, l, u, lb, ub, tolerance):
     y = _dense_solve(0.5 * (Hz + Hz.T), Z.T @ (g + H @ x0), np.zeros((0, n - m)), np.zeros(0), Ry[keep],
                      lo[keep] - shift[keep], hi[keep] - shift[keep], -free, free)[0]
     return None if y is None else x0 + Z @ y
-
-
-def second_opinion(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, daqp_backend: "DaqpBackend | None" = None
-                   ) -> tuple[np.ndarray | None, str]:
-    """Two active-set solvers asked about a QP another backend reported infeasible: :func:`solve_pinned_reduced`,
-    then one call of ``daqp_backend`` (unconfirmed). A proximal method's infeasibility test (ProxQP: Bambade et al.,
-    "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS 2022) can fire on feasible QPs
-    with nearly dependent equality rows, where an active-set factorisation answers exactly.
-
-    Args:
-        H, g, A, b, C, l, u, lb, ub: the QP (shapes as in :meth:`QPBackend.solve`).
-        tolerance: largest scaled row violation accepted (:meth:`QPBackend.scaled_violation`).
-        daqp_backend: the DAQP backend of the second attempt (None: a cold :class:`DaqpBackend` of ``tolerance``).
-
-    Returns:
-        (x (n,) within [lb, ub] meeting every row to ``tolerance``, name of the solver: ``quadprog`` or ``daqp``),
-        or (None, '') when neither found one.
-    """
-    x = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance)
-    if x is not None:
-        return x, "quadprog"
-    daqp_backend = daqp_backend if daqp_backend is not None else DaqpBackend(tolerance=tolerance)
-    try:
-        return daqp_backend.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
-    except SolverError:
-        return None, ""
 
 
 def hard_set_check(A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *, iter_limit: int = ITERATION_LIMIT,
