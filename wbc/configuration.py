@@ -132,9 +132,13 @@ class Configuration:
         self._v_shape = (self._nv,)
         self._keep_ag = False
         self._ag = None
-        # lookahead: a second Data computed at q ⊕ v·dt, adopted by a step with that v·dt (swapped with _data);
+        # lookahead: a second Data computed at q ⊕ v·dt, adopted by a step with that v·dt (swapped with _data), made
+        # here (not inside the first tick that looks ahead; none for a subclass with its own update, which does not);
         # [v·dt, q] it was computed from (_steps[nv:]), _ahead_out = (Data, its data.com[0], q ⊕ v·dt, CoM Jacobian, Ag)
         self._spare = None
+        if type(self).update is Configuration.update:
+            spare = robot.model.createData()
+            self._spare = (spare, spare.com[0])
         # one array [v·dt of step (nv,), ahead (nv + nq,)]: a single argument of the step's compiled check
         self._steps = np.full(2 * self._nv + robot.model.nq, np.nan)
         self._steps[:self._nv] = 0.0
@@ -200,9 +204,6 @@ class Configuration:
             self._steps[self._nv:2 * self._nv] = vdt
             self._steps[2 * self._nv:] = q
         spare = self._spare
-        if spare is None:
-            data = self.model.createData()
-            spare = self._spare = (data, data.com[0])
         q_next = pin.integrate(self.model, q, vdt)
         jcom, ag = self._kinematics(spare[0], q_next)
         self._ahead_out = (spare, q_next, jcom, ag)

@@ -102,3 +102,27 @@ def test_prepare_layouts_refuses_bad_arguments(robots):
         ctrl.prepare_layouts([(list(ctrl.tasks), [object()])], config, DT)
     _, _, fresh, _ = _swaying(robots)
     np.testing.assert_array_equal(ctrl.solve(config, DT).v, fresh.solve(config, DT).v)  # its own layout kept
+
+
+def test_prepared_ticks_pay_no_one_time_cost(robots, monkeypatch):
+    """The one-time costs of the compiled tick are paid before the ticks: the configuration's lookahead Data is made
+    with the configuration (the one its first lookahead returns), the biped's drift kernel is specialised when the
+    plan is made, the tick kernel by ``prepare_layouts``; then six ticks of a swaying Talos, at least four of them
+    compiled (each drift-checked: two soles), call :func:`wbc.compiled.specialise` zero times."""
+    import wbc.controllers.compiled_tick as compiled_tick
+
+    robot, config, ctrl, _ = _swaying(robots)
+    made = config._spare[0]
+    assert config.lookahead(np.zeros(robot.model.nv)) is made
+    ctrl.prepare_layouts([(list(ctrl.tasks), list(ctrl.constraints))], config, DT)
+    calls = []
+    real = compiled_tick.specialise
+    monkeypatch.setattr(compiled_tick, "specialise", lambda *a: calls.append(a[0]) or real(*a))
+    paths = []
+    for _ in range(6):
+        res = ctrl.solve(config, DT)
+        assert res.ok, res.message
+        paths.append(str(res.path))
+        config.step(res.v, DT)
+    assert paths.count("compiled") >= 4, paths
+    assert calls == []

@@ -143,6 +143,9 @@ class CompiledTick:
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
         plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
+        if FusedPlan.pair_drift is None and len(plan.logs) == 2:  # log_operands' types: data.oMf's R is F-ordered
+            frame, b = (np.zeros((4, 3)), np.zeros((3, 3), order="F"), np.zeros(3)), np.zeros(12)
+            FusedPlan.pair_drift = specialise(contact_pair_drift, frame, frame, plan.logs, b, 0, 6, 0.0, 0.0, 0.0)
         plan.supported = True
         return plan
 
@@ -202,11 +205,8 @@ class CompiledTick:
                 (ca, _), (cb, _) = plan.contact_logs
                 pin.updateFramePlacement(model, ndata, ca.frame_id)
                 pin.updateFramePlacement(model, ndata, cb.frame_id)
-                (ra, rb), (f_a, f_b) = plan.pair_rows, self._contact_factor_values
-                args = (ca.log_operands(ndata), cb.log_operands(ndata), plan.logs, b, ra, rb, f_a, f_b, lever)
-                if plan.drift_kernel is None:  # Pinocchio's views and the plan's buffers: fixed types
-                    plan.drift_kernel = specialise(contact_pair_drift, *args)
-                far, drift = plan.drift_kernel(*args)
+                far, drift = FusedPlan.pair_drift(ca.log_operands(ndata), cb.log_operands(ndata), plan.logs, b,
+                                                  *plan.pair_rows, *self._contact_factor_values, lever)
             else:
                 # a configuration subclass with its own update (ndata None): the frames' supporting joints only
                 q_next = pin.integrate(model, q, plan.vdt) if ndata is None else None
@@ -240,5 +240,5 @@ class FusedPlan:
     supported = False
     tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
     buffers = None  # its TickBuffers (made on the first tick)
-    drift_kernel = None  # contact_pair_drift, likewise
+    pair_drift = None  # contact_pair_drift specialised, once per process, when the first biped's plan is made
     box = None  # the kernel's box arguments (_kernel_box), made on the first tick
