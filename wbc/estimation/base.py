@@ -558,7 +558,7 @@ class FloatingBaseEstimator:
         contact: {side: bool}. turning: {side: bool}, the sole turns on the ground (``turn_rate``).
         sole_yaw_rate: (2,) low-passed world yaw rate of the (left, right) sole (rad/s).
         wrench: (2, 6) ground reaction per foot (sole frame, sole axes).
-        sole: {side: pin.SE3} estimated world placement of each sole (overwritten by the next update).
+        sole: {side: pin.SE3} world placements, set when read from sole_rotation (2, 3, 3) and sole_position (2, 3).
         velocity_world: (3,) ṗ̂ (m/s, world).
 
     Raises:
@@ -609,10 +609,8 @@ class FloatingBaseEstimator:
         # the compiled update's state (``_ST_*`` slots) and the anchors, of which the dicts below hold views
         self._st = np.zeros(_ST_SIZE)
         self._st[_ST_FROM:_ST_FROM + 2] = -1.0  # no hand-over
-        self._anchor, self._axis = np.zeros((2, 3)), np.zeros((2, 3))
-        self._axis[:, 0] = 1.0
-        self._arot = np.zeros((2, 3, 3))
-        self._arot[:] = np.eye(3)
+        self._anchor, self._axis = np.zeros((2, 3)), np.tile([1.0, 0.0, 0.0], (2, 1))
+        self._arot = np.tile(np.eye(3), (2, 1, 1))
         self.anchor = {s: self._anchor[j] for j, s in enumerate(SIDES)}
         self.anchor_axis = {s: self._axis[j] for j, s in enumerate(SIDES)}
         self._anchor_rotation = {s: self._arot[j] for j, s in enumerate(SIDES)}  # uneven ground: world ← sole
@@ -629,7 +627,7 @@ class FloatingBaseEstimator:
         self.contact = {s: False for s in SIDES}
         self.normal_force = {s: 0.0 for s in SIDES}
         self.wrench = np.zeros((2, 6))
-        self.sole = {s: pin.SE3.Identity() for s in SIDES}
+        self._sole = {s: pin.SE3.Identity() for s in SIDES}
         self._X = pin.SE3.Identity()  # the estimated base rotation, for its quaternion (update)
         self.acc_kin = self._st[_ST_ACC:_ST_ACC + 3]
         self._beta = self.dt / (self.dt + 1.0 / (2.0 * math.pi * _nonneg(accel_cutoff_hz, "accel_cutoff_hz", True)))
@@ -641,10 +639,11 @@ class FloatingBaseEstimator:
         self._vk_base, self._vk_joints = self._vk[3:6], self._vk[6:]
         self._frame_ids = tuple(self.ft[s].frame_id for s in SIDES)
         self._chains = _sole_chains(model, self._frame_ids) if self._q_slice else None
-        self._sole_rot, self._sole_pos = np.zeros((2, 3, 3)), np.zeros((2, 3))
+        self._soles_placed = None  # [(data.oMf[sole], its rotation and translation views)] (update)
+        self.sole_rotation, self.sole_position = np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3))
         self._prm = np.zeros(_PRM_SIZE)
-        self._state = _FuseState(self._st, self._anchor, self._axis, self._arot, self.wrench, self._sole_rot,
-                                 self._sole_pos, self._prm, self.q, self.v)
+        self._state = _FuseState(self._st, self._anchor, self._axis, self._arot, self.wrench, self.sole_rotation,
+                                 self.sole_position, self._prm, self.q, self.v)
         self._pack()
         self._warm_up()
 
@@ -672,6 +671,13 @@ class FloatingBaseEstimator:
             prm[21 + 7 * j:24 + 7 * j] = sensor.sole_in_sensor
             prm[24 + 7 * j:27 + 7 * j] = sensor.com_in_sensor
             prm[34 + 2 * j], prm[35 + 2 * j] = det.on, det.off
+
+    @property
+    def sole(self) -> dict:
+        """{side: pin.SE3} the soles' world placements (class docstring; the same SE3 objects at every read)."""
+        for j, side in enumerate(SIDES):
+            self._sole[side].rotation, self._sole[side].translation = self.sole_rotation[j], self.sole_position[j]
+        return self._sole
 
     def _warm_up(self) -> None:
         """Load :func:`_fuse_kernel` (on-disk cache) for the argument types of :meth:`update`, on copies."""
@@ -760,8 +766,11 @@ class FloatingBaseEstimator:
             np.subtract(gyro, att.bias, out=vc_base)
             vc_joints[:] = vj[cols]
             pin.forwardKinematics(model, data, qc, vc)
-        Xl = pin.updateFramePlacement(model, data, fl)  # (views of data.oMf, valid until the next forwardKinematics)
-        Xr = pin.updateFramePlacement(model, data, fr)
+        pin.updateFramePlacement(model, data, fl)
+        pin.updateFramePlacement(model, data, fr)
+        if self._soles_placed is None:  # (views of this estimator's data.oMf (eigenpy), kept with their SE3s)
+            self._soles_placed = [(M, M.rotation, M.translation) for M in (data.oMf[fl], data.oMf[fr])]
+        (_, rl, pl), (_, rr, pr) = self._soles_placed
         vl = pin.getFrameVelocity(model, data, fl, pin.LOCAL_WORLD_ALIGNED).vector
         vr = pin.getFrameVelocity(model, data, fr, pin.LOCAL_WORLD_ALIGNED).vector
         q, v = self.q, self.v
@@ -772,26 +781,20 @@ class FloatingBaseEstimator:
         prm[11:15] = kf.Q.ravel()
         prm[15], prm[16] = kf.R[0, 0], kf.R[1, 1]
         # steps 2-4 (attitude, contacts, anchors, Kalman filter) and the outputs but the quaternion, compiled
-        legs = (Xl.rotation, Xl.translation, Xr.rotation, Xr.translation, vl, vr)
+        legs = (rl, pl, rr, pr, vl, vr)
         filters = (att.rotation, att.gains, att.bias, att.omega, kf.p, kf.velocity, kf.P)
         _FUSE[0](ft, accel, gyro, legs, filters, self._state)
         s = st.tolist()
         object.__setattr__(att, "accel_used", s[_ST_ACCEL_USED] != 0.0)  # (not a gain: no check)
         contact, turning, normal_force, detectors = self.contact, self.turning, self.normal_force, self.detectors
         for j, side in enumerate(SIDES):
-            c = s[_ST_CONTACT + j] != 0.0
-            contact[side] = c
-            detectors[side].active = c
+            contact[side] = detectors[side].active = s[_ST_CONTACT + j] != 0.0
             turning[side] = s[_ST_TURNING + j] != 0.0
             normal_force[side] = s[_ST_FZ + j]
-            X = self.sole[side]
-            X.rotation = self._sole_rot[j]
-            X.translation = self._sole_pos[j]
         # (pin.Quaternion(R), built from a matrix, leaks 80 B of C heap per call with eigenpy 3.12: 2.4 MB per
         # minute at 500 Hz; SE3ToXYZQUAT gives the same (x, y, z, w) without it)
-        X = self._X
-        X.rotation = att.rotation
-        q[3:7] = pin.SE3ToXYZQUAT(X)[3:]
+        self._X.rotation = att.rotation
+        q[3:7] = pin.SE3ToXYZQUAT(self._X)[3:]
         q[7:] = qk[7:]
         v[6:] = vj
         return q, v

@@ -138,12 +138,15 @@ class _FootWrenches:
         self._kernel = _foot_wrench_kernel if CHECK_TYPES else specialise(
             _foot_wrench_kernel, d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.feet, np.zeros((2, 6)),
             np.zeros((2, 3)))
+        self._views_of = None  # the MjData whose cfrc_ext, xmat, xpos, subtree_com views are kept in _views
 
     def __call__(self, out_wrench: np.ndarray, out_pos: np.ndarray) -> None:
         model, d = self.sim.model, self.sim.data
         if not (self.single_stage and d.flg_rnepost):
             mujoco.mj_rnePostConstraint(model, d)
-        self._kernel(d.cfrc_ext, d.xmat, d.xpos, d.subtree_com, self.feet, out_wrench, out_pos)
+        if d is not self._views_of:  # (views of fixed buffers of that MjData: one binding call each, not per tick)
+            self._views_of, self._views = d, (d.cfrc_ext, d.xmat, d.xpos, d.subtree_com)
+        self._kernel(*self._views, self.feet, out_wrench, out_pos)
 
 
 class _FeetBodies(NamedTuple):
@@ -276,6 +279,9 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
     qpos = data.qpos  # (views of the fixed buffers of ``data``: one binding call each, not one per tick)
     qpos_mj, qvel_mj = qpos[: sm.nq_mj], data.qvel[: sm.nv]
     last_path, last_text = None, ""
+    # the finiteness test of MuJoCo's qpos (a fixed buffer: wbc.compiled.specialise; with kernel type checks on, the
+    # dispatcher)
+    qpos_finite = all_finite if CHECK_TYPES else specialise(all_finite, qpos)
     wall0 = perf_counter()
     for k in range(n):
         t = k * dt
@@ -307,7 +313,7 @@ def run_closed_loop(sim: MujocoModel, controller, scenario, *, after_fall: float
         else:
             mujoco.mj_step2(model, data)  # mj_step1 + mj_step2 = mj_step
         t2 = perf_counter()
-        if not all_finite(qpos):
+        if not qpos_finite(qpos):
             raise SimulationError(f"MuJoCo state became non-finite at t = {t:.3f} s")
         # -- log (state at t, forces applied during [t, t + dt]) -------------------------------------------
         log_t[k] = t

@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 import pinocchio as pin
 
-from wbc.compiled import once_per_process
+from wbc.compiled import CHECK_TYPES, once_per_process, specialise
 from wbc.estimation import FloatingBaseEstimator
 from wbc.exceptions import InvalidInputError
 from wbc.sim.sensors import PlantSensors, SensorSpecs
@@ -54,8 +54,8 @@ def _zmp_kernel(wrench, rot_left, pos_left, rot_right, pos_right, min_fz, height
 
 @once_per_process
 def _warm_up() -> None:
-    """Load :func:`_zmp_kernel` (on-disk cache) once per process, for the soles' (Fortran-ordered) rotations."""
-    r = np.asfortranarray(np.eye(3))
+    """Load :func:`_zmp_kernel` (on-disk cache) once per process, for the estimator's sole rotations."""
+    r = np.eye(3)
     _zmp_kernel(np.zeros((2, 6)), r, np.zeros(3), r, np.zeros(3), 10.0, 0.0)
 
 
@@ -80,9 +80,13 @@ class EstimatedState:
         if getattr(sim, "terrain", None) is not None and "ground_height" not in estimator_options:
             estimator_options["ground_height"] = None  # uneven ground: the contact anchors' heights are odometry
         self.estimator = FloatingBaseEstimator(sim.robot, sim.timestep, **estimator_options)
-        self._soles = None  # (left, right) placements of the estimator whose rotation/translation views are kept
-        self._zmp_views = ()
+        est = self.estimator
+        # the estimator's sole placements (its arrays, overwritten in place by every update): _zmp_kernel's inputs
+        self._zmp_views = (est.sole_rotation[0], est.sole_position[0], est.sole_rotation[1], est.sole_position[1])
         _warm_up()
+        # measured_zmp's compiled call: the estimator's arrays, of fixed types (wbc.compiled.specialise; with kernel
+        # type checks on, the dispatcher)
+        self._zmp = _zmp_kernel if CHECK_TYPES else specialise(_zmp_kernel, est.wrench, *self._zmp_views, 10.0, 0.0)
 
     def reset(self, q0, v0=None) -> None:
         """Restart the sensors' noise and the estimator at the known initial state (q0, v0)."""
@@ -106,17 +110,12 @@ class EstimatedState:
         (:func:`wbc.estimation.zmp_from_wrenches`), None below ``min_fz`` N of total normal force. On a terrain
         plant, on the plane at the force-weighted height of the soles (else z = 0)."""
         est = self.estimator
-        left, right = est.sole["left"], est.sole["right"]
         h = 0.0
         if self.terrain is not None:  # on the plane of the loaded soles (force-weighted height)
             f = np.maximum([est.normal_force["left"], est.normal_force["right"]], 0.0)
             if f.sum() > 0:
-                h = float(f @ [X.translation[2] for X in (left, right)] / f.sum())
-        if self._soles is None or self._soles[0] is not left or self._soles[1] is not right:
-            # (eigenpy: the views follow every later assignment of the placements' rotation and translation)
-            self._soles, self._zmp_views = (left, right), (left.rotation, left.translation, right.rotation,
-                                                            right.translation)
-        found, x, y = _zmp_kernel(est.wrench, *self._zmp_views, float(min_fz), h)
+                h = float(f @ [est.sole_position[0, 2], est.sole_position[1, 2]] / f.sum())
+        found, x, y = self._zmp(est.wrench, *self._zmp_views, float(min_fz), h)
         return np.array([x, y]) if found else None
 
 

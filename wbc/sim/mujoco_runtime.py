@@ -15,6 +15,7 @@ import pinocchio as pin
 
 from wbc.exceptions import UnknownFrameError
 from wbc.robot import Robot
+from wbc.geometry import FLOAT64
 from wbc.sim.conventions import StateMap, check_vector
 
 __all__ = ["MujocoModel"]
@@ -125,10 +126,14 @@ class MujocoModel:
         """
         d = self.data if data is None else data
         drive = self.drive
-        if drive is not None and type(tau) is np.ndarray and tau.dtype == float \
-                and tau.shape == (self.state_map.nv - 6,) and hasattr(drive, "write_available_torque") \
-                and drive.write_available_torque(tau, d.qvel, self.state_map.mj_qvel, d.ctrl, self.actuator_ids):
-            return
+        if drive is not None and type(tau) is np.ndarray and tau.dtype == FLOAT64 \
+                and hasattr(drive, "write_available_torque"):
+            views = self.__dict__.get("_torque_views")
+            if views is None or views[0] is not d:  # (qvel, ctrl: views of fixed buffers of that MjData, kept)
+                views = self._torque_views = (d, d.qvel, d.ctrl, (self.state_map.nv - 6,))
+            if tau.shape == views[3] and drive.write_available_torque(tau, views[1], self.state_map.mj_qvel, views[2],
+                                                                      self.actuator_ids):
+                return
         tau = check_vector(tau, self.state_map.nv - 6, "tau")  # (the checked path: raises on bad input)
         if self.drive is not None:
             tau = self.drive.available_torque(tau, d.qvel[self.state_map.mj_qvel])

@@ -309,6 +309,7 @@ class OutcomeMonitor:
         self._force6 = np.zeros(6)
         self.fell, self.fall_reason, self.fall_time = False, "", None
         self.max_tilt_deg = {"pelvis": 0.0, "torso": 0.0}
+        self._cos_min = [1.0, 1.0]  # the smallest tilt cosine so far (pelvis, torso): the largest tilt's
         self.speed_exceedances = 0
         self.max_speed_ratio, self.max_speed_joint = 0.0, ""
         self.max_landing_slide_m = {"left": 0.0, "right": 0.0}
@@ -356,7 +357,7 @@ class OutcomeMonitor:
         d = self.sim.data
         con = d.contact
         if d is not self._views_of:  # views of MuJoCo's arrays (fixed buffers of that MjData)
-            self._qvel, self._xmat, self._xpos, self._views_of = d.qvel, d.xmat, d.xpos, d
+            self._qvel, self._xmat, self._xpos, self._qpos, self._views_of = d.qvel, d.xmat, d.xpos, d.qpos, d
         ints = self._io
         ncon = d.ncon
         if ints.shape[0] < 8 + 3 * ncon:
@@ -369,17 +370,19 @@ class OutcomeMonitor:
         if worst > self.max_speed_ratio:
             self.max_speed_ratio, self.max_speed_joint = worst, self.joint_names[j]
         # -- tilt ----------------------------------------------------------------------------------------------
-        max_tilt = self.max_tilt_deg
-        deg_pelvis, deg_torso = math.degrees(math.acos(c_pelvis)), math.degrees(math.acos(c_torso))
-        if deg_pelvis > max_tilt["pelvis"]:
-            max_tilt["pelvis"] = deg_pelvis
-        if deg_torso > max_tilt["torso"]:
-            max_tilt["torso"] = deg_torso
+        # (the angle acos(c) in degrees, which only grows as c falls: computed for a cosine below the smallest so
+        # far — a new largest tilt — or below the fall's)
+        max_tilt, cos_min, cos_tilt = self.max_tilt_deg, self._cos_min, self.cos_tilt
         tilted = []
-        if c_pelvis < self.cos_tilt or c_torso < self.cos_tilt:
-            for key, c, deg in (("pelvis", c_pelvis, deg_pelvis), ("torso", c_torso, deg_torso)):
-                if c < self.cos_tilt:
-                    tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
+        if c_pelvis < cos_min[0] or c_torso < cos_min[1] or c_pelvis < cos_tilt or c_torso < cos_tilt:
+            for i, key, c in ((0, "pelvis", c_pelvis), (1, "torso", c_torso)):
+                if c < cos_min[i] or c < cos_tilt:
+                    deg = math.degrees(math.acos(c))
+                    if deg > max_tilt[key]:
+                        max_tilt[key] = deg
+                    cos_min[i] = min(cos_min[i], c)
+                    if c < cos_tilt:
+                        tilted.append(f"{key} ({self.tilt_bodies[key]}) {deg:.1f}°")
         # -- landing slide (its state advanced by the kernel) --------------------------------------------------
         if (new_left or new_right) and not self._first:
             self.touchdowns["left"] += new_left
@@ -403,7 +406,8 @@ class OutcomeMonitor:
                 self.fall_reason = "non-foot contact with the ground: " + ", ".join(names)
             elif strike:
                 self.fall_reason = strike
-            elif d.qpos[2] - (self.support_height() if self.on_terrain else 0.0) < self.z0 - self.zf0 - FALL_HEIGHT_DROP:
+            elif self._qpos[2] - (self.support_height() if self.on_terrain else 0.0) \
+                    < self.z0 - self.zf0 - FALL_HEIGHT_DROP:
                 self.fall_reason = f"base height dropped by more than {FALL_HEIGHT_DROP} m"
             elif tilted:
                 self.fall_reason = f"tilt > {FALL_TILT_DEG:g}° from nominal: " + ", ".join(tilted)

@@ -59,7 +59,7 @@ import pinocchio as pin
 from wbc.compiled import once_per_process
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
-from wbc.geometry import mean_heading
+from wbc.geometry import FLOAT64, mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
 from wbc.gait.commands import feet_can_yaw
@@ -506,6 +506,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self.log = {"phase": np.zeros((n, 2), dtype=np.int8), "dcm": np.full((n, 2), np.nan),
                     "dcm_ref": np.full((n, 2), np.nan), "cop_cmd": np.full((n, 2), np.nan),
                     "sole_xy": np.zeros((n, 2, 2)), "sole_yaw": np.zeros((n, 2))}
+        self._log_rows = tuple(self.log[key] for key in ("phase", "dcm", "dcm_ref", "cop_cmd", "sole_xy", "sole_yaw"))
         self._k = 0
         self._pushing = False
 
@@ -663,7 +664,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         xi = np.array([xix, xiy])
         if self.step_adjust:
             self._adjust_step(t, k, c, cd, xi)
-        i = min(self._k, len(self.log["phase"]) - 1)
+        lg_phase, lg_dcm, lg_dcm_ref, lg_cop, lg_xy, lg_yaw = self._log_rows
+        i = min(self._k, len(lg_phase) - 1)
         dz, dzd = self._support_offset(k) if self.blind or self.terrain_walk is not None else (0.0, 0.0)
         if self.blind:
             self._partial_footholds(controller, q, v, t)
@@ -671,7 +673,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             stab = self.stab
             p_meas = self.measured_zmp
             if self._cut["left"] is None and self._cut["right"] is None and (p_meas is None or (
-                    type(p_meas) is np.ndarray and p_meas.shape == (2,) and p_meas.dtype == np.float64
+                    type(p_meas) is np.ndarray and p_meas.shape == (2,) and p_meas.dtype == FLOAT64
                     and p_meas[0] == p_meas[0])):
                 ax, ay = self._stabilize(k, self._no_cop if p_meas is None else p_meas)
             else:
@@ -691,19 +693,17 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 controller.set_com_reference_trusted(target, vel, acc)
             else:  # the validated setter raises its typed error
                 controller.set_com_reference(target, vel, acc)
-            self.log["cop_cmd"][i] = self.stab.last_cop
+            lg_cop[i] = self.stab.last_cop
         else:
             controller.set_com_reference(plan.com[k] + [0.0, 0.0, dz], plan.com_vel[k] + [0.0, 0.0, dzd],
                                          plan.com_acc[k])
-        lg = self.log
-        lg["dcm"][i] = xi
-        lg["dcm_ref"][i] = self.ref_dcm[k]
-        views = self._sole_views
-        for j, s in enumerate(("left", "right")):
-            lg["phase"][i, j] = _PHASE_CODE[sw.phase(s)]
-            _, R, pos = views[s]
-            lg["sole_xy"][i, j] = pos[:2]
-            lg["sole_yaw"][i, j] = math.atan2(R[1, 0], R[0, 0])
+        lg_dcm[i] = xi
+        lg_dcm_ref[i] = self.ref_dcm[k]
+        lg_phase[i] = (_PHASE_CODE[sw.phase("left")], _PHASE_CODE[sw.phase("right")])
+        (_, R0, p0), (_, R1, p1) = self._sole_views["left"], self._sole_views["right"]
+        lg_xy[i] = (p0[:2], p1[:2])
+        r0, r1 = R0[:2, 0].tolist(), R1[:2, 0].tolist()
+        lg_yaw[i] = (math.atan2(r0[1], r0[0]), math.atan2(r1[1], r1[0]))
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
                 and not self.recovery_failures \

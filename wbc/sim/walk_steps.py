@@ -75,6 +75,8 @@ class WalkSteps:
 
     def _apply_push(self, t, sim):
         active = self.push > 0 and self.push_time <= t < self.push_time + self.push_duration - 1e-9
+        if not (active or self._pushing):  # (nothing to apply or clear: timed_push's (None, False))
+            return None
         f, self._pushing = timed_push(sim, self._push_body, self.push * self.push_vec if active else None, active,
                                       self._pushing)
         return f
