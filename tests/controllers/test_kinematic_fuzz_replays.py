@@ -355,3 +355,41 @@ def test_nearly_dependent_contact_rows_are_projected_in_a_failed_ticks_retries(r
         assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (tick, drift, turn)
         assert ctrl._work.cap == 8 and ctrl._work.solves <= 15, tick
         config.update(config.integrate(res.v, DT))
+
+
+def test_a_weighted_form_re_solve_goes_to_the_band_rows_its_tick_already_needed(robots, monkeypatch):
+    """Fuzz seed 8104 episode 743 tick 6 (default flags; humanoid15, strict levels answered by their weighted form,
+    dt 2 ms), a strict-level failure of the 10⁶-tick kinematic fuzz on main bfa375f (s70): the contact rows are
+    nearly dependent (one of 12 dropped at the rank tolerance) and the first solve left the dropped row's residual
+    past ``dependent_row_tolerance``, so the tick's answer is the band solve (the row held within ±tolerance / 2).
+    Each re-solve of the contact correction and trust region (only b or the box changed) solved the plain QP again
+    first, rejected it by the same residual, then the band QP: 4 counted solves instead of 2, and the count stopped
+    the correction of the trust region's command (drift 0.10 mm, ``fallback:contacts_held``). The strict cascade
+    already started such re-solves on its bands (``hierarchy.BAND_KEY``); the flat solve now does too: no plain solve
+    of the tick's QP follows its first band solve, the tick is ok within 1.75 × 8 counted solves, within the joint
+    velocity limits, its soles within 0.05 mm and 3e-4 rad of where their rows send them (forward kinematics, own
+    Data)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8104, 743)
+    assert (name, strict, dt) == ("humanoid15", True, DT)
+    _run_to(ctrl, config, 6)
+    calls = []  # (band?, equality rows) of each DAQP solve of the tick's QP (FastBackend's fallback included)
+    solve = DaqpBackend.solve
+
+    def recorded(self, H, g, A, b, C, l, u, lb, ub, **kw):
+        if self is ctrl.backend or self is ctrl._band_backend:
+            calls.append((self is ctrl._band_backend, A.shape[0]))
+        return solve(self, H, g, A, b, C, l, u, lb, ub, **kw)
+
+    monkeypatch.setattr(DaqpBackend, "solve", recorded)
+    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+    assert highs_feasible(A, b, C, l, u, lb, ub)  # the hard set as asked has a command (HiGHS)
+    res = ctrl.solve(config, DT)
+    assert res.ok and str(res.path) == "levels+weighted", (res.path, res.message)
+    assert ctrl._eq_rows.size == ctrl._A.shape[0] - 1  # one contact row dropped: the band path
+    first_band = [band for band, _ in calls].index(True)
+    assert sum(band for band, _ in calls) >= 3  # the first solve's bands, then the re-solves'
+    assert not any(band is False for band, _ in calls[first_band:])  # no plain re-solve after the bands
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 1.75 * 8
+    assert np.all(np.abs(res.v[6:]) <= ctrl.robot.model.velocityLimit[6:] + 1e-9)
+    drift, turn = _sole_gaps_fk(ctrl, config, res.v)
+    assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (drift, turn)

@@ -49,6 +49,13 @@ class GeneralRoute:
         fresh = self._eq_rows is None
         if fresh:
             self._eq_rows = independent_rows(A, self.rank_rtol)
+        elif self._banded is self._eq_rows and np.array_equal(self._banded_A, A):
+            # a re-solve of this tick's A (only b or the box changed) whose dropped rows needed band rows: those bands
+            # at once, not a solve whose residual sends it there (as the cascade's BAND_KEY); failed: forgotten
+            try:
+                return self._solve_banded(H, g, A, b, C, l, u, lb, ub)
+            except SolverError:
+                self._banded = None
         while True:
             full_rank = self._eq_rows.size == A.shape[0]
             A_kept, b_kept = (A, b) if full_rank else (A[self._eq_rows], b[self._eq_rows])
@@ -79,6 +86,7 @@ class GeneralRoute:
                               f"solution holds them within ±{half:.3g} (contradictory hard equalities): {exc}") \
                 from None
         self.dependent_residual = float(np.max(np.abs(A @ v - b)))
+        self._banded, self._banded_A = self._eq_rows, A.copy()
         return v
 
     def _new_backend(self, **daqp_settings) -> QPBackend:

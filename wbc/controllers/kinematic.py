@@ -407,7 +407,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             # and its weighted form skips the kernel, uncounted, on later problems of a shape it gave up on
             self.backend.count_give_ups = not self._level_order
             self.backend.skip_give_ups = bool(self._level_order)
-        self._assembled = False
+        self._assembled, self._banded = False, None  # (_banded: the rows of the tick's last band solve, _solve_flat)
         self._in_solve, self._contact_expected = True, None  # (the drift meter forgot at the last tick's end)
         weighted_start = bool(self._level_order) and self._weighted_left > 0
         self._weighted_tick, self._weighted_qp = weighted_start, None
