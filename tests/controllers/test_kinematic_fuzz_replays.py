@@ -393,3 +393,64 @@ def test_a_weighted_form_re_solve_goes_to_the_band_rows_its_tick_already_needed(
     assert np.all(np.abs(res.v[6:]) <= ctrl.robot.model.velocityLimit[6:] + 1e-9)
     drift, turn = _sole_gaps_fk(ctrl, config, res.v)
     assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (drift, turn)
+
+
+@pytest.mark.parametrize("seed, episode, tick, feasible", [(8112, 109, 41, False), (8114, 321, 42, True),
+                                                            (8116, 751, 39, True)])
+def test_a_cycling_daqp_workspace_hands_a_re_solve_over_within_the_stage_iterations(robots, monkeypatch, seed,
+                                                                                     episode, tick, feasible):
+    """Strict-level failures of the 10⁶-tick kinematic fuzz on main bfa375f (s70; default flags, humanoid15, strict
+    levels answered by their weighted form, dt 2 ms, nearly dependent contact rows): a re-solve after the tick's first
+    solve — the relaxation ladder's projected retry (8112, whose rows as asked have no command: HiGHS), the trust
+    region's whole box (8114), the contact correction (8116) — met a DAQP workspace that ran to its 1000-iteration
+    limit (7 counted solves of the tick's 8) before its one-shot call answered in 10–30, the count stopped the next
+    stage and the tick failed (``fallback:contacts_held``, drift 0.05–0.1 mm). Those solves now take at most
+    ``STAGE_ITERATIONS`` per DAQP call: the tick is ok within 1.75 × 8 counted solves, within the joint velocity
+    limits, its soles within 0.05 mm and 3e-4 rad of where their rows send them (forward kinematics, own Data)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
+    assert (name, strict, dt) == ("humanoid15", True, DT)
+    _run_to(ctrl, config, tick)
+    _, _, A, b, C, l, u, lb, ub = ctrl.assemble(config, DT)
+    assert highs_feasible(A, b, C, l, u, lb, ub) == feasible  # (HiGHS)
+    s = np.linalg.svd(A[ctrl._contact_rows], compute_uv=False)
+    assert s[-1] / max(s[0], 1.0) < ctrl.rank_rtol  # nearly dependent contact rows
+    iterations = []  # DAQP iterations of each call of the flat QP's backends during the tick
+    timed = DaqpBackend._timed
+
+    def recorded(self, call):
+        out = timed(self, call)
+        if self is ctrl.backend or self is ctrl._band_backend:
+            iterations.append(int(out[3]["iterations"]))
+        return out
+
+    monkeypatch.setattr(DaqpBackend, "_timed", recorded)
+    res = ctrl.solve(config, DT)
+    assert res.ok and str(res.path) == "levels+weighted", (res.path, res.message)
+    assert max(iterations) <= 150  # (STAGE_ITERATIONS; DAQP's own limit is 1000)
+    assert ctrl._work.cap == 8 and ctrl._work.solves <= 1.75 * 8
+    assert np.all(np.abs(res.v[6:]) <= ctrl.robot.model.velocityLimit[6:] + 1e-9)
+    drift, turn = _sole_gaps_fk(ctrl, config, res.v)
+    assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (drift, turn)
+
+
+@pytest.mark.parametrize("caller_cap", [None, 40, 400])
+def test_the_stage_iteration_cap_leaves_the_callers_own_cap(robots, monkeypatch, caller_cap):
+    """The tick caps its later DAQP calls for its own stages only: a cap the caller set on the controller's DAQP
+    backend (``call_iterations``) is what the backend has after the tick, and a lower one holds inside it (the
+    8114/321/42 tick of the test above, whose re-solves meet the stage cap)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 8114, 321)
+    _run_to(ctrl, config, 42)
+    ctrl.backend.call_iterations = caller_cap
+    limits = []
+    call_limit = DaqpBackend.call_limit
+
+    def recorded(self):
+        out = call_limit(self)
+        if self is ctrl.backend:
+            limits.append(out)
+        return out
+
+    monkeypatch.setattr(DaqpBackend, "call_limit", recorded)
+    ctrl.solve(config, DT)
+    assert ctrl.backend.call_iterations == caller_cap
+    assert len(limits) > 1 and max(limits[1:]) <= (150 if caller_cap is None else min(150, caller_cap))

@@ -73,11 +73,20 @@ class GeneralRoute:
             fresh = True
             self._eq_rows = rows
 
+    def _cap_calls(self, cap: int | None) -> None:
+        """At most ``cap`` DAQP iterations per call of the flat QP's backends (the tick's, its band rows'), within a
+        cap the caller set on the tick's backend (``_caller_calls``, read at the tick's start); None: the caller's."""
+        own = self._caller_calls
+        for backend in (self.backend, self._band_backend):
+            if isinstance(backend, DaqpBackend):
+                backend.call_iterations = own if cap is None or (own is not None and own < cap) else cap
+
     def _solve_banded(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         """Flat solve with the dropped dependent equality rows as band inequalities (``_solve_flat``)."""
         half = 0.5 * self.dependent_row_tolerance
         if self._band_backend is None:
             self._band_backend = self._new_backend()
+            self._band_backend.call_iterations = getattr(self.backend, "call_iterations", None)
         residual = self.dependent_residual
         try:
             v = self._band_backend.solve(H, g, *band_rows(A, b, C, l, u, self._eq_rows, half), lb, ub)

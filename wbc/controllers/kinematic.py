@@ -108,6 +108,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
     CHECK_WORK = 0.25
     #: DAQP iterations per call of the 'contacts_held' QP at β = 0 when the count was spent before the failure
     HELD_ITERATIONS = 150
+    #: DAQP iterations per call of the flat QP's solves after the tick's first (its retries, contact corrections, trust
+    #: regions): a warm workspace cycling to DAQP's 1000-iteration limit (7 counted solves) hands over after 1
+    STAGE_ITERATIONS = 150
 
     def __init__(self, robot: Robot, tasks: list[Task] = (), constraints: list[Constraint] = (), *,
                  solver: str | QPBackend = DEFAULT_SOLVER, damping: float = 1e-6, rank_rtol: float = 1e-3,
@@ -145,6 +148,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.robot_check = RobotCheck(robot.model)
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self._fallback_backend = self._final_backend = self._band_backend = None  # built when first needed
+        self._caller_calls: int | None = None  # a cap the caller set on the backend (GeneralRoute._cap_calls)
         self._level_backends: list[QPBackend] = []
         self.tasks: list[Task] = []
         self.levels: dict[int, list[Task]] = {}
@@ -340,6 +344,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if result is not None:
             return result
         weighted_start = self._start_general()
+        self._caller_calls = getattr(self.backend, "call_iterations", None)  # (restored at the tick's end)
         t1 = None
         try:
             self.assemble(config, dt)  # targets → the tick's QP, in the controller's buffers
@@ -352,7 +357,9 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             try:  # → the solver route (flat or strict levels), then the relaxation ladder
                 v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
             except SolverError as first_failure:
+                self._cap_calls(self.STAGE_ITERATIONS)  # (the tick's later solves, until its end)
                 v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)
+            self._cap_calls(self.STAGE_ITERATIONS)
             # its contacts held (second-order correction, trust region; slower returns, a cut cascade's weighted form)
             result = self._held_command(config, dt, v, relaxed, held=held)
             if not result.ok and not held:
@@ -377,6 +384,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             result = self._recover(config, dt, exc)  # → the safe command
         finally:
             self._in_solve = False
+            self._cap_calls(None)
             self.drift_meter.forget()
         return self._close_tick(result, weighted_start, t0, t1, dt)
 
