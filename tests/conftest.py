@@ -22,6 +22,8 @@ import pinocchio as pin
 import pytest
 
 import wbc
+from wbc.constraints.base import IDContext
+from wbc.state import DynamicsState
 
 
 _DDS_DOMAINS = {"next": None}
@@ -189,6 +191,42 @@ def fd_jacobian(task, robot, q):
         em = task.compute_error(Configuration(robot, pin.integrate(robot.model, q, -dq)))
         J[:, i] = (ep - em) / (2 * EPS)
     return J
+
+
+def id_ticks_from_standing(robot, ctrl, ticks: int, dt: float, measure):
+    """``ticks`` ticks of an inverse-dynamics controller from standing (q_ref, v = 0), the state integrated from the
+    commanded v̇ (semi-implicit Euler); each command must be ok and unrelaxed. Returns [(command, measure(q, v, v̇))]
+    per tick (``measure`` an independent reference of the constrained quantity, e.g. Pinocchio's)."""
+    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
+    out = []
+    for _ in range(ticks):
+        cmd = ctrl.solve(q, v)
+        assert cmd.ok and not cmd.relaxed, cmd.path_reason
+        out.append((cmd, measure(q, v, cmd.dv)))
+        v = v + dt * cmd.dv
+        q = pin.integrate(robot.model, q, dt * v)
+    return out
+
+
+def written_id_rows(robot, con, rng, dt: float, states: int = 4, nf: int = 24):
+    """Yield (q, v, C, l, u) of an inequality ID constraint written at ``states`` random (q, v) of the robot (NaN
+    buffers, nf force columns, which must stay zero: forces enter through the dynamics rows only)."""
+    for _ in range(states):
+        q, v = random_configuration(robot, rng), rng.normal(scale=0.5, size=robot.nv)
+        C, l, u = np.full((con.dim, robot.nv + nf), np.nan), np.full(con.dim, np.nan), np.full(con.dim, np.nan)
+        con.write(IDContext(DynamicsState(robot, q, v), dt, robot.nv, np.zeros((robot.nv, nf)), {}), C, l, u)
+        assert (C[:, robot.nv:] == 0).all()
+        yield q, v, C, l, u
+
+
+def assert_id_command_is_the_qp_optimum(ctrl, cmd, dt: float, x_tol: float) -> np.ndarray:
+    """The command's x = [v̇; f] equals quadprog's optimum of the QP ``ctrl.qp.build`` assembles at the controller's
+    state (within x_tol · max(1, |x*|)); returns that QP's C (inequality rows) for checks of added rows."""
+    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, dt)
+    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    x = np.concatenate([cmd.dv, cmd.forces])
+    np.testing.assert_allclose(x, xq, rtol=0, atol=x_tol * max(1.0, np.abs(xq).max()))
+    return C
 
 
 def dense_quadprog(H, g, A, b, C, l, u, lb, ub) -> np.ndarray:

@@ -28,7 +28,7 @@ from wbc.exceptions import InvalidInputError
 from wbc.tasks import PostureTask
 
 DT = 0.002
-BASES = {"Constraint", "EqualityConstraint", "InequalityConstraint", "BoxConstraint", "IDConstraint"}
+BASES = {"Constraint", "EqualityConstraint", "InequalityConstraint", "BoxConstraint", "IDConstraint", "AxisBound"}
 
 
 def _constraint_classes():

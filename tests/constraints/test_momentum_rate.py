@@ -11,10 +11,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import dense_quadprog, random_configuration
+from conftest import assert_id_command_is_the_qp_optimum, id_ticks_from_standing, written_id_rows
 from wbc.constraints import AngularMomentumRateBound
-from wbc.constraints.base import IDContext
-from wbc.dynamics import AccelerationReference, DynamicsState, InverseDynamicsController, InverseDynamicsQP, SoleContact
+from wbc.dynamics import AccelerationReference, InverseDynamicsController, InverseDynamicsQP, SoleContact
 from wbc.exceptions import InvalidInputError
 from wbc.tasks import PostureTask
 
@@ -38,12 +37,7 @@ def test_rows_are_pinocchios_momentum_rate_against_the_limit(robots):
     nf = 24
     con = AngularMomentumRateBound(LIMIT)
     checked = {True: 0, False: 0}
-    for _ in range(4):
-        q, v = random_configuration(robot, rng), rng.normal(scale=0.5, size=robot.nv)
-        state = DynamicsState(robot, q, v)
-        C, l, u = np.full((3, robot.nv + nf), np.nan), np.full(3, np.nan), np.full(3, np.nan)
-        con.write(IDContext(state, DT, robot.nv, np.zeros((robot.nv, nf)), {}), C, l, u)
-        assert (C[:, robot.nv:] == 0).all()  # forces enter through the dynamics rows only
+    for q, v, C, l, u in written_id_rows(robot, con, rng, DT, nf=nf):
         for scale in (0.01, 0.3, 30.0):  # |L̇| inside the limit, near it, far outside
             dv = scale * rng.standard_normal(robot.nv)
             x = np.concatenate([dv, rng.standard_normal(nf)])
@@ -71,27 +65,18 @@ def _turning_torso(robot, bound: AngularMomentumRateBound | None) -> InverseDyna
     return ctrl
 
 
-def _run(robot, ctrl, ticks: int):
-    """``ticks`` ticks from standing, the state integrated from the commanded v̇ (semi-implicit Euler); per tick the
-    command and Pinocchio's L̇ of it."""
-    q, v = robot.q_ref.copy(), np.zeros(robot.nv)
-    out = []
-    for _ in range(ticks):
-        cmd = ctrl.solve(q, v)
-        assert cmd.ok and not cmd.relaxed, cmd.path_reason
-        out.append((cmd, _momentum_rate(robot, q, v, cmd.dv)))
-        v = v + DT * cmd.dv
-        q = pin.integrate(robot.model, q, DT * v)
-    return out
+def _run(robot, ctrl):
+    """20 ticks from standing; per tick the command and Pinocchio's L̇ under it."""
+    return id_ticks_from_standing(robot, ctrl, 20, DT, lambda q, v, dv: _momentum_rate(robot, q, v, dv))
 
 
 def test_on_a_talos_controller_it_binds_and_stays_on_the_compiled_path(robots):
     robot = robots("talos")
-    free = _run(robot, _turning_torso(robot, None), 20)
+    free = _run(robot, _turning_torso(robot, None))
     assert max(abs(rate[2]) for _, rate in free) > 2 * LIMIT[2]  # the task alone asks far more than the bound
     bound = AngularMomentumRateBound(LIMIT)
     ctrl = _turning_torso(robot, bound)
-    held = _run(robot, ctrl, 20)
+    held = _run(robot, ctrl)
     # the first tick is cold (no warm start) and leaves the compiled route with or without the bound
     assert str(held[0][0].path) == str(free[0][0].path)
     for k, (cmd, rate) in enumerate(held):
@@ -101,10 +86,7 @@ def test_on_a_talos_controller_it_binds_and_stays_on_the_compiled_path(robots):
             assert str(cmd.path) == "kernel" and cmd.path_reason == "", (k, cmd.path, cmd.path_reason)
     assert ctrl.paths["kernel"] == 19
     # the compiled answer of the last tick is the optimum of the QP build() assembles there, the bound's rows in it
-    H, g, A, b, C, l, u, lb, ub = ctrl.qp.build(ctrl.state, DT)
-    x = np.concatenate([held[-1][0].dv, held[-1][0].forces])
-    xq = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
-    np.testing.assert_allclose(x, xq, rtol=0, atol=X_TOL * max(1.0, np.abs(xq).max()))
+    C = assert_id_command_is_the_qp_optimum(ctrl, held[-1][0], DT, X_TOL)
     np.testing.assert_array_equal(C[bound.rows, :robot.nv], ctrl.state.centroidal_momentum_matrix[3:6])
 
 
@@ -121,3 +103,12 @@ def test_a_free_axis_and_a_new_limit():
     np.testing.assert_array_equal(bound.limit, [5.0, 5.0, 5.0])
     bound.limit[:] = 1.0  # a copy: the bound is unchanged
     np.testing.assert_array_equal(bound.limit, [5.0, 5.0, 5.0])
+
+
+def test_assigning_the_limit_validates_it():
+    bound = AngularMomentumRateBound(10.0)
+    bound.limit = [1.0, 2.0, math.inf]
+    np.testing.assert_array_equal(bound.limit, [1.0, 2.0, math.inf])
+    with pytest.raises(InvalidInputError, match="limit must be > 0"):
+        bound.limit = [1.0, math.nan, 1.0]
+    np.testing.assert_array_equal(bound.limit, [1.0, 2.0, math.inf])  # unchanged by the refused value

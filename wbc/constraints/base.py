@@ -43,10 +43,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from wbc.configuration import Configuration
+from wbc.exceptions import InvalidInputError
 from wbc.state import DynamicsState
 
 __all__ = ["CONSTRAINT_KINDS", "Constraint", "KinematicContext", "EqualityConstraint", "InequalityConstraint", "BoxConstraint",
-           "IDContext", "IDConstraint"]
+           "IDContext", "IDConstraint", "AxisBound"]
 
 #: The kinds of constraint rows (``Constraint.kind``): A x = b, l ≤ C x ≤ u, lb ≤ x[indices] ≤ ub.
 CONSTRAINT_KINDS = ("equality", "inequality", "bounds")
@@ -208,3 +209,62 @@ class IDConstraint(Constraint):
     rows: slice = slice(0, 0)
     indices: np.ndarray | None = None
 
+
+class AxisBound(IDConstraint):
+    """Base of the symmetric bounds on three world-axis quantities affine in v̇, y = J v̇ + d (force columns zero):
+
+        −y_max − d ≤ J v̇ ≤ y_max − d        (three inequality rows, per world axis x, y, z)
+
+    A subclass sets ``unit`` (for messages) and implements :meth:`axis_rows`; the limit, its validation and the
+    rows are here (:class:`~wbc.constraints.momentum_rate.AngularMomentumRateBound`,
+    :class:`~wbc.constraints.frame_acceleration.FrameAccelerationBound`).
+
+    Attributes:
+        limit: (3,) y_max per world axis (``unit``), a copy; assigning it (or :meth:`set_limit`) validates it.
+    """
+
+    kind = "inequality"
+    dim = 3
+    unit = ""
+
+    def __init__(self, limit, *, name: str, relaxable: bool = True):
+        self.name = str(name)
+        self.relaxable = bool(relaxable)
+        self._limit = np.zeros(3)
+        self.set_limit(limit)
+
+    @property
+    def limit(self) -> np.ndarray:
+        """(3,) y_max per world axis (``unit``), a copy."""
+        return self._limit.copy()
+
+    @limit.setter
+    def limit(self, value) -> None:
+        self.set_limit(value)
+
+    def set_limit(self, limit) -> None:
+        """Set y_max (``unit``): one number > 0 or (3,) of them (``math.inf``: free axis).
+
+        Raises:
+            InvalidInputError: another shape, or an entry not > 0 (NaN included).
+        """
+        try:
+            value = np.broadcast_to(np.asarray(limit, dtype=float), (3,))
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"{self.name}: limit must be one number or 3 ({self.unit}, world x, y, z), "
+                                    f"got {limit!r}") from None
+        if not (value > 0).all():  # NaN fails too
+            raise InvalidInputError(f"{self.name}: limit must be > 0 ({self.unit}; math.inf leaves an axis free), "
+                                    f"got {value.tolist()}")
+        self._limit[:] = value
+
+    @abstractmethod
+    def axis_rows(self, state: DynamicsState) -> tuple[np.ndarray, np.ndarray]:
+        """(J (3, nv), d (3,)) of y = J v̇ + d at the state of this tick (world axes)."""
+
+    def write(self, ctx, C, l, u):
+        J, drift = self.axis_rows(ctx.state)
+        C[:, :ctx.nv] = J
+        C[:, ctx.nv:] = 0.0
+        np.subtract(-self._limit, drift, out=l)
+        np.subtract(self._limit, drift, out=u)

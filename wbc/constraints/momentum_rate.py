@@ -15,15 +15,12 @@ its rows are written by :meth:`~AngularMomentumRateBound.write` before the compi
 
 from __future__ import annotations
 
-import numpy as np
-
-from wbc.constraints.base import IDConstraint
-from wbc.exceptions import InvalidInputError
+from wbc.constraints.base import AxisBound
 
 __all__ = ["AngularMomentumRateBound"]
 
 
-class AngularMomentumRateBound(IDConstraint):
+class AngularMomentumRateBound(AxisBound):
     """|L̇_i| ≤ L̇_max,i on the centroidal angular momentum rate, per world axis i = x, y, z (module docstring):
     three inequality rows A_G,ang v̇ (force columns zero), bounds ±L̇_max − (Ȧ_G v)_ang (N·m).
 
@@ -35,46 +32,16 @@ class AngularMomentumRateBound(IDConstraint):
             bound rather than a hardware limit).
 
     Attributes:
-        limit: (3,) L̇_max (N·m), a copy; change it with :meth:`set_limit`.
+        limit: (3,) L̇_max (N·m), a copy; assign it or call :meth:`~wbc.constraints.base.AxisBound.set_limit`.
 
     Raises:
         InvalidInputError: a limit that is not one number or three, or not > 0 (NaN included).
     """
 
-    kind = "inequality"
-    dim = 3
+    unit = "N·m"
 
     def __init__(self, limit, *, name: str = "angular_momentum_rate", relaxable: bool = True):
-        self.name = str(name)
-        self.relaxable = bool(relaxable)
-        self._limit = np.zeros(3)
-        self.set_limit(limit)
+        super().__init__(limit, name=name, relaxable=relaxable)
 
-    @property
-    def limit(self) -> np.ndarray:
-        """(3,) L̇_max per world axis (N·m), a copy."""
-        return self._limit.copy()
-
-    def set_limit(self, limit) -> None:
-        """Set L̇_max (N·m): one number > 0 or (3,) of them (``math.inf``: free axis).
-
-        Raises:
-            InvalidInputError: another shape, or an entry not > 0 (NaN included).
-        """
-        try:
-            value = np.broadcast_to(np.asarray(limit, dtype=float), (3,))
-        except (TypeError, ValueError):
-            raise InvalidInputError(f"{self.name}: limit must be one number or 3 (N·m, world x, y, z), "
-                                    f"got {limit!r}") from None
-        if not (value > 0).all():  # NaN fails too
-            raise InvalidInputError(f"{self.name}: limit must be > 0 (N·m; math.inf leaves an axis free), "
-                                    f"got {value.tolist()}")
-        self._limit[:] = value
-
-    def write(self, ctx, C, l, u):
-        state = ctx.state
-        C[:, :ctx.nv] = state.centroidal_momentum_matrix[3:6]
-        C[:, ctx.nv:] = 0.0
-        drift = state.centroidal_drift[3:6]
-        np.subtract(-self._limit, drift, out=l)
-        np.subtract(self._limit, drift, out=u)
+    def axis_rows(self, state):
+        return state.centroidal_momentum_matrix[3:6], state.centroidal_drift[3:6]
