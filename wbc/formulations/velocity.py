@@ -154,8 +154,8 @@ class VelocityQP:
         return QPData(*self._assemble(config, dt, True))
 
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
-        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the compiled tick (the posture's q ⊖ q*
-        and gain kept in ``_posture_diff``, ``_posture_gain``), with ``boxes`` False lb and ub too."""
+        """:meth:`assemble` (the posture's q ⊖ q* and gain kept in ``_posture_diff``, ``_posture_gain``); with
+        ``form_cost`` False, H and g are left to the compiled tick, with ``boxes`` False lb and ub too."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
@@ -170,10 +170,9 @@ class VelocityQP:
                 posture.share_weight(soft.pw)
         else:
             diff, pgain = soft.no_diff, 0.0
+        self._posture_diff, self._posture_gain = diff, pgain
         if form_cost:
             form_qp(soft.fb, soft.ib, diff, pgain, self.damping, H, g)
-        else:
-            self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:
             task.add_cost(config, H, g)
         if self._level_order:  # the strict levels' rows, gathered the same way, weights applied (weighted_rows)
