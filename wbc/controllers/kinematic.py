@@ -136,7 +136,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.tick_budget = TickBudget()
         self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
         self.budget = budget
-        self._cut: list[str] = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
         #: the contact frames' drift over a tick (:class:`wbc.controllers.contact_hold.DriftMeter`)
@@ -325,7 +324,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                                          and math.isfinite(dt) and dt > 0)):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
-        self._cut = []
+        self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._start_work(dt if self._budget is None else self._budget)
         plan = self._fused  # the compiled tick (:mod:`wbc.controllers.compiled_tick`), else the general path
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key

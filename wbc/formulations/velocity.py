@@ -74,17 +74,14 @@ class VelocityQP:
             while len(self._layouts) > 16:
                 self._layouts.pop(next(iter(self._layouts)))
         cached = self._layouts.get(key)  # (its constraints kept alive by the layout: no id reused while it is kept)
-        if cached is not None:
-            state.update(cached)
-            self._layout_key = key
-            self._layout_ok = True
-            if key in self._prepared:  # built ahead by prepare_layouts: its first tick counts it as built there
-                self._prepared.discard(key)
-                self._work.add(self.LAYOUT_WORK)
-            return
-        self._work.add(self.LAYOUT_WORK)  # a new layout
+        if cached is None or key in self._prepared:  # a new layout, or one built ahead by prepare_layouts: its
+            self._work.add(self.LAYOUT_WORK)  # first tick counts it as built there
         self._prepared.discard(key)
         self._layout_key = key
+        if cached is not None:
+            state.update(cached)
+            self._layout_ok = True
+            return
         self._constraints = list(self.constraints)
         self._const_box = None
         self._box = sorted((c for c in self.constraints if isinstance(c, BoxConstraint)), key=lambda c: c.priority)
@@ -127,10 +124,8 @@ class VelocityQP:
         self._contact_factors = np.zeros(len(self._contact_blocks))
         self._contact_factor_values = [math.nan] * len(self._contact_blocks)  # the same as floats: written on change
         self._contact_starts = np.array([r0 for _, r0, _ in self._contact_blocks], np.int64)
-        self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
-        for c, r0, r1 in self._eq_blocks:
-            if isinstance(c, TaskConstraint):
-                self._not_hard_task[r0:r1] = False
+        self._not_hard_task = np.array([not isinstance(c, TaskConstraint) for c, r0, r1 in self._eq_blocks
+                                        for _ in range(r0, r1)], dtype=bool)  # equality rows kept by the fallback
         self._layout_ok = True
 
     def _build_soft_layout(self) -> None:
