@@ -256,8 +256,7 @@ class SoftRows:
     weights ``pw`` and velocity indices ``prow``); the tasks with their own cost (``own``). ``own_costs`` (the soft
     level): one plain :class:`~wbc.tasks.PostureTask` becomes the diagonal term of
     :func:`wbc.formulations.velocity_kernel.form_qp` and the tasks with their own ``add_cost`` (added to H, g after it)
-    are listed apart; else (a strict level) every task is a stack of rows. A task with its own velocity target writes
-    v* as e with K = −1, ė* = 0."""
+    are listed apart; else (a strict level) every task is a stack of rows (its own velocity target: :meth:`gather`)."""
 
     def __init__(self, tasks: list[Task], nv: int, own_costs: bool):
         self.tasks = list(tasks)
