@@ -51,8 +51,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
-            exactly) or a :class:`~wbc.solvers.base.QPBackend`.
+        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, "fast": active-set kernels with DAQP as
+            fallback, exact, so bounds hold exactly) or a :class:`~wbc.solvers.base.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
