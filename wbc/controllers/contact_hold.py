@@ -183,14 +183,13 @@ class ContactHold:
         worst, drifts, _ = self._contact_drifts(config, v, dt)
         if worst <= self.contact_correction:
             return v
-        rows = [(r0, r1) for _, r0, r1 in self._contact_blocks]  # in the order of _contacts (of drifts)
         range_basis = self._contact_range_basis(near)
         b0 = self._b.copy()
         try:
             for k in range(3):
                 if not self._may_resolve(safe, f"contact correction after {k} of 3 re-solves"):
                     break  # the best command is kept
-                for (r0, r1), d in zip(rows, drifts):
+                for (_, r0, r1), d in zip(self._contact_blocks, drifts):  # (in the order of _contacts, of drifts)
                     self._b[r0:r1] -= d / dt
                 self._project_contact_rhs(range_basis)
                 try:
@@ -223,7 +222,7 @@ class ContactHold:
         drift = self.sole_drift(config, v, dt)
         if self.sole_drift_tolerance is None or drift <= self.sole_drift_tolerance:
             return TickResult(v, relaxed=relaxed, sole_drift=drift)
-        lb0, ub0, b0 = self._lb.copy(), self._ub.copy(), self._b.copy()
+        box0, b0 = self._box_rows.copy(), self._b.copy()  # (lb, ub) as the rows of one array
         best_v, best = v, drift
         rho = float(np.max(np.abs(v)))
         basis = self._contact_range_basis(near=True) if self._contact_rows.size else None
@@ -241,10 +240,9 @@ class ContactHold:
                     # ρ ← ρ · clip(0.8 · tolerance / drift, 1/16, 1/2)
                     radius = (rho if math.isinf(radius) else radius) * min(
                         0.5, max(1.0 / 16.0, 0.8 * self.sole_drift_tolerance / max(last, 1e-300)))
-                np.clip(lb0, -radius, radius, out=self._lb)
-                np.clip(ub0, -radius, radius, out=self._ub)
-                np.maximum(self._lb, np.minimum(lb0, ub0), out=self._lb)  # never tighter than a pinned bound
-                np.minimum(self._ub, np.maximum(lb0, ub0), out=self._ub)
+                np.clip(box0, -radius, radius, out=self._box_rows)
+                np.maximum(self._lb, np.minimum(*box0), out=self._lb)  # never tighter than a pinned bound
+                np.minimum(self._ub, np.maximum(*box0), out=self._ub)
                 try:
                     v_tr = solve(config)
                 except SolverError:
@@ -257,8 +255,7 @@ class ContactHold:
                 if best <= self.sole_drift_tolerance:
                     break
         finally:
-            np.copyto(self._lb, lb0)
-            np.copyto(self._ub, ub0)
+            np.copyto(self._box_rows, box0)
             np.copyto(self._b, b0)
         if best <= self.sole_drift_tolerance:
             return TickResult(best_v, relaxed=relaxed, sole_drift=best)

@@ -51,8 +51,8 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         robot: the robot.
         tasks: weighted tasks (order irrelevant).
         constraints: equality, inequality and bound constraints.
-        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, DAQP: an active-set method, so bounds hold
-            exactly) or a :class:`~wbc.solvers.base.QPBackend`.
+        solver: QP backend name (default ``wbc.solvers.DEFAULT_SOLVER``, "fast": active-set kernels with DAQP as
+            fallback, exact, so bounds hold exactly) or a :class:`~wbc.solvers.base.QPBackend`.
         damping: ε, weight of ‖v‖² (s²·task units), > 0.
         rank_rtol: relative tolerance of the numerical rank of the equality rows.
         dependent_row_tolerance: largest residual of a dropped equality row (its units: m/s, rad/s) accepted
@@ -136,7 +136,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.tick_budget = TickBudget()
         self._work = self.tick_budget.work  # the tick's QP solves, shared with every backend of the controller
         self.budget = budget
-        self._cut: list[str] = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         #: second-order contact corrections (re-solves) done by the last tick.
         self.contact_corrections = 0
         #: the contact frames' drift over a tick (:class:`wbc.controllers.contact_hold.DriftMeter`)
@@ -148,7 +147,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self.robot_check = RobotCheck(robot.model)
         self.backend = make_backend(solver) if isinstance(solver, str) else solver
         self._fallback_backend = self._final_backend = self._band_backend = None  # built when first needed
-        self._caller_calls: int | None = None  # a cap the caller set on the backend (GeneralRoute._cap_calls)
         self._level_backends: list[QPBackend] = []
         self.tasks: list[Task] = []
         self.levels: dict[int, list[Task]] = {}
@@ -157,9 +155,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._hard: dict[int, TaskConstraint] = {}
         self._level_memo: dict = {}  # the cascade's retries that solved a level (hierarchy.solve_lexicographic)
         self._weighted_left = 0  # clock guard: ticks still answered by the weighted form of the strict levels
-        self._weighted_tick = False  # the current tick solves the strict levels as one weighted QP
-        self._weighted_from: tuple | None = None  # (counted solves, CPU s) when a cut cascade's weighted form started
-        self._weighted_qp: tuple | None = None  # (H, g) of that QP at the current tick
         #: ‖J_k v − v*_k‖ of each strict level at the last hierarchical tick (weights applied).
         self.level_residuals: list[float] = []
         self._context = KinematicContext()  # what Constraint.write reads (assemble)
@@ -173,7 +168,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._soft_tasks = self._level_key = None  # the soft level's tasks / the strict levels' of _level_rows
         self._level_rows: list[SoftRows] = []
         self._in_solve, self._contact_expected = False, None
-        self._work_stamp: tuple | None = None  # the backends _start_work last gave the tick's work to
         #: largest residual (m/s, rad/s) of the dropped dependent equality rows at the last flat solve.
         self.dependent_residual = 0.0
         #: failed ticks in a row up to the last tick (0 after an ok tick).
@@ -209,22 +203,14 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
 
     def _start_work(self, budget_s: float) -> None:
         """Start the tick's budget (:meth:`wbc.controllers.budget.TickBudget.start`, with the controller's numbers:
-        class or instance attributes, they may change between ticks) and share its work with every QP backend."""
+        class or instance attributes, they may change between ticks) and share its work with the tick's backend (the
+        controller's other backends get it when made: ``_new_backend``)."""
         tb = self.tick_budget
         tb.clock_guard, tb.stage_factor, tb.stage_deadline = self.clock_guard, self.STAGE_FACTOR, self.STAGE_DEADLINE
         tb.start(budget_s, self.SOLVE_COST, self.CLOCK_WEIGHT)
-        work = self._work
-        stamp = (self.backend, self._fallback_backend, self._final_backend, self._band_backend)
-        if self._level_backends:
-            stamp += tuple(self._level_backends)
-        # written only when the backends changed since the last tick that wrote them, or when that tick (or a
-        # later one) took the general path, which changes their ``independent`` (solve: _work_stamp = None)
-        if stamp != self._work_stamp or self.backend.work is not work:
-            for b in stamp:
-                if b is not None:
-                    b.work = work
-                    b.independent = CONFIRM_ORDER
-            self._work_stamp = stamp
+        if self.backend.work is not self._work:  # the caller's backend (or one assigned since the last tick)
+            self.backend.work = self._work
+            self.backend.independent = CONFIRM_ORDER
 
     # -- problem definition -------------------------------------------------------------------------------
     def add_task(self, task: Task, *, level: int | None = None, hard: bool = False) -> Task:
@@ -338,11 +324,22 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                                                          and math.isfinite(dt) and dt > 0)):
             raise InvalidInputError(f"dt must be a finite number of seconds > 0 (not a bool), got {dt!r}")
         t0 = perf_counter()
-        self._cut = []
+        self._cut = []  # stages of this tick stopped by its budget (TickResult.path '+budget')
         self._start_work(dt if self._budget is None else self._budget)
-        result = self._compiled_answer(config, dt, t0)  # the compiled tick (None: the general path)
-        if result is not None:
-            return result
+        plan = self._fused  # the compiled tick (:mod:`wbc.controllers.compiled_tick`), else the general path
+        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key
+                                and self._soft_tasks == self.tasks and plan.soft_tasks is self._soft_tasks
+                                and plan.backend is self.backend and not self._level_order):
+            plan = self._fused_plan(config, dt)
+        if plan is not None:
+            try:
+                result = self._fused_tick(plan, config, dt, t0)
+            except InvalidInputError:
+                raise
+            except Exception:  # noqa: BLE001 — the general path meets it again and handles it
+                result = None
+            if result is not None:
+                return result
         weighted_start = self._start_general()
         self._caller_calls = getattr(self.backend, "call_iterations", None)  # (restored at the tick's end)
         t1 = None
@@ -386,29 +383,11 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             self._in_solve = False
             self._cap_calls(None)
             self.drift_meter.forget()
-        return self._close_tick(result, weighted_start, t0, t1, dt)
-
-    def _compiled_answer(self, config: Configuration, dt: float, t0: float) -> TickResult | None:
-        """The tick answered by the compiled tick (:mod:`wbc.controllers.compiled_tick`), or None: the general
-        path answers it (any failure of the compiled tick but a typed input error)."""
-        plan = self._fused
-        if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key
-                                and self._soft_tasks == self.tasks and plan.soft_tasks is self._soft_tasks
-                                and plan.backend is self.backend and not self._level_order):
-            plan = self._fused_plan(config, dt)
-        if plan is None:
-            return None
-        try:
-            return self._fused_tick(plan, config, dt, t0)
-        except InvalidInputError:
-            raise
-        except Exception:  # noqa: BLE001 — the general path meets it again and handles it
-            return None
+        return self._close_tick(result, weighted_start, t0, t1)
 
     def _start_general(self) -> bool:
         """Set up the general path of the tick (backends' give-up counting, the strict levels' weighted form and
         reserve); True when the tick starts on the weighted form of its strict levels."""
-        self._work_stamp = None  # the general path may change the backends' ``independent``: _start_work
         if isinstance(self.backend, FastBackend):
             # a flat tick counts the kernel's give-ups (uncounted, a return-rate ladder and trust region spent twice
             # the budget); the strict cascade's stages keep their calibrated count (LEVEL_WORK, WEIGHTED_RESERVE),
@@ -418,14 +397,13 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         self._assembled, self._banded = False, None  # (_banded: the rows of the tick's last band solve, _solve_flat)
         self._in_solve, self._contact_expected = True, None  # (the drift meter forgot at the last tick's end)
         weighted_start = bool(self._level_order) and self._weighted_left > 0
-        self._weighted_tick, self._weighted_qp = weighted_start, None
+        self._weighted_tick, self._weighted_qp = weighted_start, None  # (H, g) of the weighted form when made
         if self._level_order and not weighted_start and math.isfinite(self._work.cap):
             # the cascade's stages stop WEIGHTED_RESERVE budgets early: the rest is its weighted form's
             self._work.reserve = self.WEIGHTED_RESERVE * self._work.cap
         return weighted_start
 
-    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float | None,
-                    dt: float) -> TickResult:
+    def _close_tick(self, result: TickResult, weighted_start: bool, t0: float, t1: float) -> TickResult:
         """The tick's bookkeeping after its answer: the strict levels' weighted ticks left, timings, the budget's
         marks, feedback constraints and the failure count."""
         if self._level_order:

@@ -73,23 +73,17 @@ class VelocityQP:
             self._layouts[self._layout_key] = {a: state[a] for a in LAYOUT_ATTRS if a in state}
             while len(self._layouts) > 16:
                 self._layouts.pop(next(iter(self._layouts)))
-        cached = self._layouts.get(key)
-        if cached is not None and len(cached["_constraints"]) == len(self.constraints) and all(
-                a is b for a, b in zip(cached["_constraints"], self.constraints)):
-            state.update(cached)
-            self._layout_key = key
-            self._layout_ok = True
-            if key in self._prepared:  # built ahead by prepare_layouts: its first tick counts it as built there
-                self._prepared.discard(key)
-                self._work.add(self.LAYOUT_WORK)
-            return
-        self._work.add(self.LAYOUT_WORK)  # a new layout
+        cached = self._layouts.get(key)  # (its constraints kept alive by the layout: no id reused while it is kept)
+        if cached is None or key in self._prepared:  # a new layout, or one built ahead by prepare_layouts: its
+            self._work.add(self.LAYOUT_WORK)  # first tick counts it as built there
         self._prepared.discard(key)
         self._layout_key = key
+        if cached is not None:
+            state.update(cached)
+            self._layout_ok = True
+            return
         self._constraints = list(self.constraints)
         self._const_box = None
-        eq = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
-        ineq = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
         self._box = sorted((c for c in self.constraints if isinstance(c, BoxConstraint)), key=lambda c: c.priority)
         self._feedback = [c for c in self.constraints if c.needs_previous_command]
         self._box_sel = []  # (box, its indices as a slice when contiguous: views instead of fancy indexing)
@@ -100,12 +94,11 @@ class VelocityQP:
         self._relaxable = [c for c in self.constraints if c.relaxable]
         self._contacts = [c for c in self.constraints if isinstance(c, ContactConstraint)]
         self._const_prefix = None  # number of leading constant boxes, cached by _intersect_boxes
-        self._eq_blocks, n_eq = row_blocks(eq)
+        self._eq_blocks, n_eq = row_blocks([c for c in self.constraints if isinstance(c, EqualityConstraint)])
         contact_ids = set(map(id, self._contacts))
         self._contact_blocks = [blk for blk in self._eq_blocks if id(blk[0]) in contact_ids]  # order of _contacts
-        self._contact_rows = np.array([i for c, r0, r1 in self._eq_blocks if id(c) in contact_ids
-                                       for i in range(r0, r1)], dtype=int)
-        self._in_blocks, n_in = row_blocks(ineq)
+        self._contact_rows = np.array([i for _, r0, r1 in self._contact_blocks for i in range(r0, r1)], dtype=int)
+        self._in_blocks, n_in = row_blocks([c for c in self.constraints if isinstance(c, InequalityConstraint)])
         relax = set(map(id, self._relaxable))  # their row blocks, one list (boxes: re-intersected without them)
         self._relaxable_blocks = [blk for blk in (*self._eq_blocks, *self._in_blocks) if id(blk[0]) in relax]
         # the compiled solver eliminates the floating base (a free flyer at v[0:6] no box bounds) by the first
@@ -131,21 +124,19 @@ class VelocityQP:
         self._contact_factors = np.zeros(len(self._contact_blocks))
         self._contact_factor_values = [math.nan] * len(self._contact_blocks)  # the same as floats: written on change
         self._contact_starts = np.array([r0 for _, r0, _ in self._contact_blocks], np.int64)
-        self._not_hard_task = np.ones(self._A.shape[0], dtype=bool)  # equality rows kept by the fallback
-        for c, r0, r1 in self._eq_blocks:
-            if isinstance(c, TaskConstraint):
-                self._not_hard_task[r0:r1] = False
+        self._not_hard_task = np.array([not isinstance(c, TaskConstraint) for c, r0, r1 in self._eq_blocks
+                                        for _ in range(r0, r1)], dtype=bool)  # equality rows kept by the fallback
         self._layout_ok = True
 
     def _build_soft_layout(self) -> None:
-        """The soft tasks' stacked rows (:func:`stack_rows`), redone when ``tasks`` changes and kept per task list
+        """The soft tasks' stacked rows (:class:`SoftRows`), redone when ``tasks`` changes and kept per task list
         (the same task objects in the same order and sizes): a swing task that comes back reuses its layout."""
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
-        if cached is not None and all(a is b for a, b in zip(cached.tasks, self.tasks)):
+        if cached is not None:  # (the same task objects: kept alive by it)
             self._soft_tasks, self._soft = cached.tasks, cached
             return
-        soft = stack_rows(self.tasks, self.nv, own_costs=True)
+        soft = SoftRows(self.tasks, self.nv, own_costs=True)
         self._soft_tasks, self._soft = soft.tasks, soft
         self._soft_layouts[key] = soft
         while len(self._soft_layouts) > 16:
@@ -158,15 +149,15 @@ class VelocityQP:
         return QPData(*self._assemble(config, dt, True))
 
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
-        """:meth:`assemble`; with ``form_cost`` False, H and g are left to the compiled tick (the posture's q ⊖ q*
-        and gain kept in ``_posture_diff``, ``_posture_gain``), with ``boxes`` False lb and ub too."""
+        """:meth:`assemble` (the posture's q ⊖ q* and gain kept in ``_posture_diff``, ``_posture_gain``); with
+        ``form_cost`` False, H and g are left to the compiled tick, with ``boxes`` False lb and ub too."""
         if not self._layout_ok:
             self._build_layout()
         if self._soft_tasks != self.tasks:
             self._build_soft_layout()
         H, g = self._H, self._g
         soft = self._soft
-        gather_rows(soft, config)
+        soft.gather(config)
         posture = soft.posture
         if posture is not None:
             diff, pgain = posture.row_difference(config.q), posture.gain
@@ -174,19 +165,18 @@ class VelocityQP:
                 posture.share_weight(soft.pw)
         else:
             diff, pgain = soft.no_diff, 0.0
+        self._posture_diff, self._posture_gain = diff, pgain
         if form_cost:
             form_qp(soft.fb, soft.ib, diff, pgain, self.damping, H, g)
-        else:
-            self._posture_diff, self._posture_gain = diff, pgain
         for task in soft.own:
             task.add_cost(config, H, g)
         if self._level_order:  # the strict levels' rows, gathered the same way, weights applied (weighted_rows)
             key = tuple((k, id(t), t.dim) for k in self._level_order for t in self.levels[k])
             if key != self._level_key:
                 self._level_key = key
-                self._level_rows = [stack_rows(self.levels[k], self.nv, own_costs=False) for k in self._level_order]
+                self._level_rows = [SoftRows(self.levels[k], self.nv, own_costs=False) for k in self._level_order]
             for level in self._level_rows:
-                gather_rows(level, config)
+                level.gather(config)
                 weighted_rows(level.J, level.e, level.rowp, level.wJ, level.wr)
         A, b = self._A, self._b
         ctx = self._context
@@ -259,68 +249,62 @@ class VelocityQP:
                 record.append((c.name, c.indices, np.array(lb[sel]), np.array(ub[sel])))
 
 
-def stack_rows(tasks: list[Task], nv: int, own_costs: bool) -> SoftRows:
-    """Stacked-row buffers of ``tasks`` (:class:`SoftRows`). ``own_costs`` (the soft level): one plain
-    :class:`~wbc.tasks.PostureTask` becomes the diagonal term of :func:`wbc.formulations.velocity_kernel.form_qp` and
-    the tasks with their own ``add_cost`` (added to H, g after it) are listed apart; else (a strict level) every task
-    is a stack of rows. A task with its own velocity target writes v* as e with K = −1, ė* = 0."""
-    soft = SoftRows()
-    soft.tasks = list(tasks)
-    dense, soft.own, soft.posture = [], [], None
-    row = 0
-    for task in tasks:
-        if not own_costs or type(task).add_cost is Task.add_cost:
-            dense.append((task, row, row + task.dim, type(task).velocity_target is Task.velocity_target))
-            row += task.dim
-        elif type(task) is PostureTask and soft.posture is None:
-            soft.posture = task
-        else:
-            soft.own.append(task)
-    prow = np.zeros(0, np.int64) if soft.posture is None else np.asarray(soft.posture.rows, np.int64)
-    soft.fb, soft.ib = rows_pack(row, nv, prow)  # what the compiled tick reads (kinematic_tick_packed)
-    soft.J, soft.e, soft.rowp, soft.pw, soft.prow, _ = task_rows.py_func(soft.fb, soft.ib)  # numpy views
-    soft.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
-    soft.wr = np.zeros(row)
-    soft.rows = []
-    for k, (task, r0, r1, plain) in enumerate(dense):
-        soft.rows.append((task, soft.e[r0:r1], soft.J[r0:r1], soft.rowp[1, r0:r1], soft.rowp[0, r0:r1],
-                          soft.rowp[2, r0:r1], k, plain))
-        if not plain:  # v* written as the error: K = −1, ė* = 0
-            soft.rowp[0, r0:r1] = -1.0
-    soft.gains = [None] * len(dense)
-    soft.has_ff = [True] * len(dense)
-    soft.no_diff = np.zeros(nv)
-    return soft
-
-
-def gather_rows(soft: SoftRows, config: Configuration) -> None:
-    """Write each task's rows at ``config`` into its stacked buffers (``compute_into``: e, J) with, per row, its
-    gain, weight and feed-forward (a task's ``weight`` becomes a view of the stacked weights: in-place changes are
-    seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1)."""
-    gains, has_ff = soft.gains, soft.has_ff
-    for task, e, J, w, gain_rows, ff_rows, k, plain in soft.rows:
-        task.compute_into(config, e, J)
-        if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
-            task.share_weight(w)
-        if not plain:
-            e[:] = task.velocity_target(e.copy())
-            continue
-        gain = task.gain
-        if gain != gains[k]:
-            gain_rows.fill(gain)
-            gains[k] = gain
-        ff = task.feedforward()
-        if ff is not None:
-            ff_rows[:] = ff
-            has_ff[k] = True
-        elif has_ff[k]:
-            ff_rows.fill(0.0)
-            has_ff[k] = False
-
-
 class SoftRows:
-    """The stacked rows of one task list (:func:`stack_rows`): ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt) =
-    gain, weight, feed-forward per row; ``wJ``, ``wr``: a strict level's rows with the weights applied; ``rows``, per
-    task with the generic cost, (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the
-    posture task (``posture``, its weights ``pw`` and velocity indices ``prow``); the tasks with their own cost
-    (``own``)."""
+    """The stacked rows of one task list: ``J`` (mt, nv), ``e`` (mt,), ``rowp`` (3, mt) = gain, weight, feed-forward
+    per row; ``wJ``, ``wr``: a strict level's rows with the weights applied; ``rows``, per task with the generic cost,
+    (task, e, J, weight, gain, feed-forward views, index, plain velocity target); the posture task (``posture``, its
+    weights ``pw`` and velocity indices ``prow``); the tasks with their own cost (``own``). ``own_costs`` (the soft
+    level): one plain :class:`~wbc.tasks.PostureTask` becomes the diagonal term of
+    :func:`wbc.formulations.velocity_kernel.form_qp` and the tasks with their own ``add_cost`` (added to H, g after it)
+    are listed apart; else (a strict level) every task is a stack of rows (its own velocity target: :meth:`gather`)."""
+
+    def __init__(self, tasks: list[Task], nv: int, own_costs: bool):
+        self.tasks = list(tasks)
+        dense, self.own, self.posture = [], [], None
+        row = 0
+        for task in tasks:
+            if not own_costs or type(task).add_cost is Task.add_cost:
+                dense.append((task, row, row + task.dim, type(task).velocity_target is Task.velocity_target))
+                row += task.dim
+            elif type(task) is PostureTask and self.posture is None:
+                self.posture = task
+            else:
+                self.own.append(task)
+        prow = np.zeros(0, np.int64) if self.posture is None else np.asarray(self.posture.rows, np.int64)
+        self.fb, self.ib = rows_pack(row, nv, prow)  # what the compiled tick reads (kinematic_tick_packed)
+        self.J, self.e, self.rowp, self.pw, self.prow, _ = task_rows.py_func(self.fb, self.ib)  # numpy views
+        self.wJ = np.zeros((row, nv))  # a strict level's rows with the weights applied (weighted_rows)
+        self.wr = np.zeros(row)
+        self.rows = []
+        for k, (task, r0, r1, plain) in enumerate(dense):
+            self.rows.append((task, self.e[r0:r1], self.J[r0:r1], self.rowp[1, r0:r1], self.rowp[0, r0:r1],
+                              self.rowp[2, r0:r1], k, plain))
+            if not plain:  # v* written as the error: K = −1, ė* = 0
+                self.rowp[0, r0:r1] = -1.0
+        self.gains = [None] * len(dense)
+        self.has_ff = [True] * len(dense)
+        self.no_diff = np.zeros(nv)
+
+    def gather(self, config: Configuration) -> None:
+        """Write each task's rows at ``config`` into its stacked buffers (``compute_into``: e, J) with, per row, its
+        gain, weight and feed-forward (a task's ``weight`` becomes a view of the stacked weights: in-place changes are
+        seen, a new array assigned is copied in); a task with its own velocity target writes v* as e (K = −1)."""
+        gains, has_ff = self.gains, self.has_ff
+        for task, e, J, w, gain_rows, ff_rows, k, plain in self.rows:
+            task.compute_into(config, e, J)
+            if task.weight is not w:  # assigned (or first tick): copied into the stacked rows, which it becomes
+                task.share_weight(w)
+            if not plain:
+                e[:] = task.velocity_target(e.copy())
+                continue
+            gain = task.gain
+            if gain != gains[k]:
+                gain_rows.fill(gain)
+                gains[k] = gain
+            ff = task.feedforward()
+            if ff is not None:
+                ff_rows[:] = ff
+                has_ff[k] = True
+            elif has_ff[k]:
+                ff_rows.fill(0.0)
+                has_ff[k] = False
