@@ -443,13 +443,9 @@ class FallbackChain:
             if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
                 raise
             first = exc
-        work = backend.work
-        if work is not None:
-            work.solves += 1  # the quadprog solve
         if self._daqp_check is None:
             self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
             self._daqp_check.cold_retry = False
-        self._daqp_check.work = work
         x, solver = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance), "quadprog"
         if x is None:
             try:
@@ -466,8 +462,6 @@ class FallbackChain:
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
-            if backend.work is not None:
-                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
             xp = backend.polish(x, A, b, C, l, u, lb, ub)
             if xp is not None:
                 cand = accept(xp, None)
