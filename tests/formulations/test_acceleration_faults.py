@@ -600,7 +600,7 @@ def test_id_quadprog_past_the_counted_work_is_skipped(robots):
         fallback.solve_pinned_reduced = reduced
     qp = ctrl.controller.qp
     assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
-    assert calls == [] and qp.chain.quadprog_skipped == 2 and qp.chain.budget_cut
+    assert calls == [] and qp.chain.budget_cut
     assert "no quadprog solve" in cmd.message and "no quadprog solve of the relaxed QP" in cmd.message
     assert qp.chain.tick_work <= 2 * 0.002 / 3.5e-6
     _finite_and_within_effort(cmd, robot)
@@ -637,7 +637,8 @@ def test_relaxed_qp_stages_end_within_relaxed_work_budgets(robots, monkeypatch, 
     qp = ctrl.controller.qp
     budget_iterations = 0.002 / 3.5e-6
     assert not cmd.ok and str(cmd.path) == "fallback:feasible", (cmd.path, cmd.message)
-    assert qp.chain.quadprog_skipped == 2 and qp.chain.budget_cut
+    assert qp.chain.budget_cut
+    assert "no quadprog solve" in cmd.message and "no quadprog solve of the relaxed QP" in cmd.message
     assert f"would pass {relaxed_work} budgets" in cmd.message
     assert relaxed_work * budget_iterations - 4 < qp.chain.tick_work <= relaxed_work * budget_iterations
     # the full QP's attempt (its cap: a third of the budget), the relaxed QP's attempt (at least that), its retries
@@ -706,7 +707,6 @@ def test_qp_proxqp_calls_infeasible_is_solved_by_the_second_opinion():
     assert not highs_feasible(A, b, C, l2, u, lb, ub)
     with pytest.raises(SolverError):
         chain.solve(QPData(H, g, A, b, C, l2, u, lb, ub))
-    assert chain.second_opinion_solves == 1
 
 
 def test_id_proxqp_failure_gets_a_second_opinion(robots):

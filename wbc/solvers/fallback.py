@@ -91,10 +91,6 @@ class FallbackChain:
         set, ``hard_set_x`` (n,). relaxed_set_feasible: the relaxed hard set's verdict (True, False, None: not
         checked). relaxed_bounds: (l, u, lb, ub) of the relaxed QP formed by that check, else None.
         compiled_reason: why the compiled solver did not answer the last full QP ('' when it did, or there is none).
-
-    Attributes (counters over the chain's life, for tests and logs): ``scaled_solves``, ``resumed_solves``,
-    ``pinned_reduced_solves``, ``relaxed_quadprog_solves``, ``second_opinion_solves``, ``output_polished``,
-    ``output_quadprog``, ``quadprog_skipped``, ``infeasible_by_check``, ``relaxed_infeasible_by_check``.
     """
 
     def __init__(self, backend, compiled: CompiledIDSolver | None = None):
@@ -113,10 +109,6 @@ class FallbackChain:
         #: the counted work cut a failed full QP whose hard set has a point: the next ones start with the scaled call
         self.resume_scaled = False
         self.hard_set_x = np.zeros(0)
-        for name in ("scaled_solves", "resumed_solves", "pinned_reduced_solves", "relaxed_quadprog_solves",
-                     "second_opinion_solves", "output_polished", "output_quadprog", "quadprog_skipped",
-                     "infeasible_by_check", "relaxed_infeasible_by_check"):
-            setattr(self, name, 0)
         self._daqp_check: DaqpBackend | None = None
         self.begin_tick()
 
@@ -137,7 +129,6 @@ class FallbackChain:
         if formed:
             self._relaxed_check_final = False
         if same_tick and self.relaxed_set_feasible is False:
-            self.relaxed_infeasible_by_check += 1
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
         if not isinstance(self.backend, DaqpBackend):
@@ -159,7 +150,6 @@ class FallbackChain:
                 if feasible is None and not self._relaxed_check_final:
                     feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
                 if feasible is False:
-                    self.relaxed_infeasible_by_check += 1
                     raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
                                       f"onto it): the backend's retries skipped")
                 sol, exc = self._retries(qp, first, "RELAXED")
@@ -172,7 +162,6 @@ class FallbackChain:
                 if x is None:
                     raise SolverError(f"{exc}; " + (f"no quadprog solve of the relaxed QP: {skipped}" if skipped else
                                                     "quadprog found no solution either"))
-                self.relaxed_quadprog_solves += 1
                 return QPSolution(x, "quadprog", "quadprog")
         except SolverError as exc:
             if backend.budget_capped:
@@ -224,7 +213,6 @@ class FallbackChain:
         :attr:`quadprog_cost`) fits what :meth:`_left` leaves ``stage``, counted; else (None, why not), a budget cut."""
         work = quadprog_work(qp.H.shape[0]) if self.tick_clock is None else self.quadprog_cost / DAQP_ITERATION_COST
         if work > self._left(stage):
-            self.quadprog_skipped += 1
             self.budget_cut = True
             return None, (f"the tick's counted work ({self.tick_work:.0f} DAQP iterations) and quadprog's ({work:.0f}) "
                           f"would pass {self._factors(stage)[0]} budgets")
@@ -279,7 +267,6 @@ class FallbackChain:
         try:
             if step.endswith("scaled call"):
                 x = backend.solve_scaled(*qp)
-                self.scaled_solves += x is not None
                 return (None if x is None else QPSolution(x, backend.name, step)), None
             return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
         except SolverError as exc:
@@ -349,11 +336,9 @@ class FallbackChain:
             cap = min(self.SCALED_FEASIBLE_FACTOR * self.daqp_attempt_iterations, self._left("FAILURE"))
             sol = self._call(qp, "resumed scaled call", int(max(MIN_CALL_ITERATIONS, cap)))[0]
             if sol is not None:
-                self.resumed_solves += 1
                 return sol
             x, skipped = self._quadprog_within(qp, "QUADPROG")
             if x is not None:
-                self.pinned_reduced_solves += 1
                 return QPSolution(x, "quadprog", "resumed quadprog")  # the next ticks resume the same way
             # not DAQP's attempt again (the last tick's failed; its iterations would leave the check none): the
             # hard-set checks, then the cut; the next tick starts the ladder afresh
@@ -412,7 +397,6 @@ class FallbackChain:
             raise SolverError(f"{first}; no quadprog solve: {skipped}"
                               + ("; the backend's retries skipped with it" if backend.cold_retry else ""))
         if x is not None:
-            self.pinned_reduced_solves += 1
             return QPSolution(x, "quadprog", "quadprog")
         sol, exc = self._retries(qp, first, "FAILURE", "; quadprog found no solution either")
         if sol is not None:
@@ -438,11 +422,9 @@ class FallbackChain:
             self._relaxed_check_final = self._check_final
             if self.relaxed_set_feasible is False:
                 self.last_set_empty = True
-                self.infeasible_by_check += 1
                 raise SolverError(f"{first}; the relaxed hard set is empty, so is the full one (DAQP on the projection "
                                   f"of the origin onto it): quadprog, the backend's retries and the relaxed QP skipped")
         if full is False:
-            self.infeasible_by_check += 1
             raise SolverError(f"{first}; the hard set is empty (DAQP on the projection of the origin onto it): "
                               f"quadprog and the backend's retries skipped")
         return False
@@ -461,20 +443,15 @@ class FallbackChain:
             if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
                 raise
             first = exc
-        work = backend.work
-        if work is not None:
-            work.solves += 1  # the quadprog solve
         if self._daqp_check is None:
             self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
             self._daqp_check.cold_retry = False
-        self._daqp_check.work = work
         x, solver = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance), "quadprog"
         if x is None:
             try:
                 x, solver = self._daqp_check.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
             except SolverError:
                 raise first from None
-        self.second_opinion_solves += 1
         return QPSolution(x, solver, "second opinion")
 
     def refine(self, x: np.ndarray, qp: QPData, accept: Callable, answered_by: str):
@@ -485,20 +462,12 @@ class FallbackChain:
         H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
-            if backend.work is not None:
-                backend.work.solves += 1  # the polish (as QPBackend.solve counts it)
             xp = backend.polish(x, A, b, C, l, u, lb, ub)
             if xp is not None:
                 cand = accept(xp, None)
                 if cand is not None:
-                    self.output_polished += 1
                     return cand
         if answered_by == "quadprog":
             return None
         xq = self._quadprog_within(qp, "QUADPROG")[0]  # the same gate as the failure path's quadprog (_stages)
-        if xq is None:
-            return None
-        cand = accept(xq, "quadprog")
-        if cand is not None:
-            self.output_quadprog += 1
-        return cand
+        return None if xq is None else accept(xq, "quadprog")
