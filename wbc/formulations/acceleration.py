@@ -252,7 +252,8 @@ class InverseDynamicsQP:
 
     def _new_buffers(self) -> None:
         """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and (``fast``)
-        the compiled solver of their sizes as :attr:`chain`'s first rung."""
+        the compiled solver of their sizes as :attr:`chain`'s first rung; both loaded for these buffers and a
+        DynamicsState's types (M column-major) now, not inside the first tick (:func:`wbc.compiled.specialise`)."""
         tl, jl, nv, nc = self.torque_limits, self.joint_acceleration_limits, self.nv, len(self.contacts)
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
                               jl.speed_horizon])
@@ -266,19 +267,12 @@ class InverseDynamicsQP:
                          IDAssemblyWork(np.zeros((nv, nv)), np.zeros(nv), np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
                                         np.zeros(jl.dim), np.zeros(jl.dim)))
         self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
-        if self._fast:
-            self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
-        self._load_compiled()
-
-    def _load_compiled(self) -> None:
-        """Load the compiled assembly (and solver) for the types of these buffers and of a DynamicsState (M
-        column-major) at construction, not inside the first tick (:func:`wbc.compiled.specialise`: nothing runs)."""
-        nv, rows = self.nv, self._rows
         dynamics = IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), self.robot.q_ref.copy(), np.zeros(nv), 0.0)
-        specialise(id_assemble, rows.tasks, dynamics, rows.contacts, *self._buffers)
+        specialise(id_assemble, self._rows.tasks, dynamics, self._rows.contacts, *self._buffers)
         if self._fast:
-            H, g, A, b, C, l, u, lb, ub, _ = self._buffers[1]
-            specialise(id_solve, QPData(H, g, A, b, C, l, u, lb, ub), nv, 100, self.chain.compiled.buffers)
+            self.chain.compiled = CompiledIDSolver(self.n, nv, self._C.shape[0], self._A.shape[0])
+            qp = QPData(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            specialise(id_solve, qp, nv, 100, self.chain.compiled.buffers)
 
     def _layout_inequalities(self) -> None:
         r = r0 = self._r0
@@ -432,10 +426,8 @@ class InverseDynamicsQP:
         return self._guard_full(state, sol, qp)
 
     def build(self, state: DynamicsState, dt: float) -> QPData:
-        """The QP at ``state`` for control period ``dt`` (s) (module docstring), as every backend gets it: views of
-        the preallocated arrays, written in place (constant blocks are not rewritten). The one assembly: the rows
-        gathered, :func:`~wbc.formulations.idkernel.id_assemble`, the dependent contact directions dropped, the rows
-        of hard tasks and added constraints by their ``write``."""
+        """The QP at ``state`` for control period ``dt`` (s) (module docstring: the one assembly), as every backend
+        gets it: views of the preallocated arrays, written in place (constant blocks are not rewritten)."""
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
