@@ -391,8 +391,9 @@ class InverseDynamicsQP:
 
     def solve(self, state: DynamicsState, dt: float) -> IDCommand:
         """Assemble the QP at ``state`` for control period ``dt`` (s), solve it by :attr:`chain` and decode the
-        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder off by
-        the solver's precision is refined first).
+        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder failing
+        it by at most :data:`~wbc.solvers.base.POLISH_RANGE` is refined first,
+        :meth:`~wbc.solvers.fallback.FallbackChain.refine`, before the chain's ``retry_deadline``).
 
         Raises:
             InvalidInputError: dt not finite and > 0.
@@ -423,7 +424,23 @@ class InverseDynamicsQP:
         why = self.chain.compiled_reason
         sol = self.solution_from(state, x, {"assembly": t1 - t0, "solve": perf_counter() - t1},
                                  TickPath("general", solver), f"{why} → {solver} {step}" if why else "")
-        return self._guard_full(state, sol, qp)
+        viol = self.verify(state, sol)
+        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=POLISH_RANGE)
+                and thread_time() < self.chain.retry_deadline):
+            def candidate(x, solver):  # a refined answer's command (solver None: polished) if it passes, else None
+                path = sol.path if solver is None else TickPath("general", solver)
+                reason = f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}"
+                cand = self.solution_from(state, x, sol.timings, path, reason)
+                return None if self.verify(state, cand) else cand
+
+            refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp, candidate, sol.path.solver)
+            if refined is not None:
+                self.last_violations = []
+                return refined
+        self.last_violations = viol
+        if viol:
+            raise _output_check_error(sol, viol)
+        return sol
 
     def build(self, state: DynamicsState, dt: float) -> QPData:
         """The QP at ``state`` for control period ``dt`` (s) (module docstring: the one assembly), as every backend
@@ -470,30 +487,6 @@ class InverseDynamicsQP:
         """:func:`nonfinite_references` of the QP's weighted and hard tasks."""
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
-    def _guard_full(self, state: DynamicsState, sol: IDCommand, qp: tuple) -> IDCommand:
-        """``sol`` (a full-QP answer of the chain to ``qp``) when it passes the output check; one failing it by at
-        most :data:`~wbc.solvers.base.POLISH_RANGE` is refined (:meth:`~wbc.solvers.fallback.FallbackChain.refine`)
-        before the chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate
-        passes."""
-        viol = self.verify(state, sol)
-        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=POLISH_RANGE)
-                and thread_time() < self.chain.retry_deadline):
-            refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp,
-                                        lambda x, solver: self._candidate(state, sol, x, solver), sol.path.solver)
-            if refined is not None:
-                self.last_violations = []
-                return refined
-        self.last_violations = viol
-        if viol:
-            raise _output_check_error(sol, viol)
-        return sol
-
-    def _candidate(self, state: DynamicsState, sol: IDCommand, x: np.ndarray, solver: str | None):
-        """The solution of a refined candidate ``x`` of ``sol`` (``solver`` None: polished) if it passes, else None."""
-        cand = self.solution_from(state, x, sol.timings, sol.path if solver is None else TickPath("general", solver),
-                                  f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}")
-        return None if self.verify(state, cand) else cand
-
     def verify(self, state: DynamicsState, sol: IDCommand, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
         """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
@@ -521,10 +514,8 @@ class InverseDynamicsQP:
         for con in self.constraints:
             if not con.enabled or (con.relaxable and not include_relaxable):
                 continue
-            if con.kind == "equality":
-                eq.append((con.name, con.rows.start, con.rows.stop))
-            elif con.kind == "inequality":
-                ineq.append((con.name, con.rows.start, con.rows.stop))
+            if con.kind in ("equality", "inequality"):
+                (eq if con.kind == "equality" else ineq).append((con.name, con.rows.start, con.rows.stop))
             elif con.kind == "bounds" and (con is not self.joint_acceleration_limits or self.joint_limits):
                 box.append((con.name, con.indices, lb[con.indices], ub[con.indices]))
         conflicts, _ = diagnose(A, b, C, l, u, lb, ub, eq, ineq, box, tol=tol)
