@@ -213,8 +213,10 @@ class InverseDynamicsController:
         t1 = perf_counter()
         try:
             sol = self.qp.solve(self.state, self.dt)
-        except SolverError as exc:
-            conflicts = self._conflicts()
+        except SolverError as exc:  # named: the output check's violations, else the tasks with non-finite inputs
+            # (cheap: a NaN written in place past the setters), else (diagnosis mode) the diagnosis
+            conflicts = (list(self.qp.last_violations) or self.qp.nonfinite_inputs()
+                         or (self.diagnose() if self.diagnose_failures else []))
             message = str(exc) + ("; conflicting constraints: " + ", ".join(f"{n} ({v:.3g})" for n, v in conflicts)
                                   if conflicts else "")
             try:  # as the full QP's, a relaxed command that ends past the budget is used and counted over budget
@@ -309,16 +311,6 @@ class InverseDynamicsController:
         cmd.tau[j] = np.clip(cmd.tau[j] + i_eff * (target[out] - a[out]), -lim, lim)
         cmd.dv[iv] = target[out]
         cmd.message += f"; {int(out.sum())} joint(s) braked to the joint speed bounds"
-
-    def _conflicts(self) -> list[tuple[str, float]]:
-        """Names for a failed full QP: the output check's violations, else the tasks with non-finite inputs, else
-        (diagnosis mode) the diagnosis."""
-        if self.qp.last_violations:
-            return list(self.qp.last_violations)
-        bad = self.qp.nonfinite_inputs()  # cheap: a NaN written in place past the setters
-        if bad:
-            return bad
-        return self.diagnose() if self.diagnose_failures else []
 
     def diagnose(self) -> list[tuple[str, float]]:
         """:meth:`~wbc.formulations.acceleration.InverseDynamicsQP.diagnose` at the last tick's state; [] when the

@@ -252,7 +252,8 @@ class InverseDynamicsQP:
 
     def _new_buffers(self) -> None:
         """The arguments of :func:`~wbc.formulations.idkernel.id_assemble` over the current blocks, and (``fast``)
-        the compiled solver of their sizes as :attr:`chain`'s first rung."""
+        the compiled solver of their sizes as :attr:`chain`'s first rung; both loaded for these buffers and a
+        DynamicsState's types (M column-major) now, not inside the first tick (:func:`wbc.compiled.specialise`)."""
         tl, jl, nv, nc = self.torque_limits, self.joint_acceleration_limits, self.nv, len(self.contacts)
         self._par = np.array([self.eps_a, jl.braking_acceleration, float(self.joint_limits), DEPENDENT_CONTACT_RATIO,
                               jl.speed_horizon])
@@ -266,19 +267,12 @@ class InverseDynamicsQP:
                          IDAssemblyWork(np.zeros((nv, nv)), np.zeros(nv), np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
                                         np.zeros(jl.dim), np.zeros(jl.dim)))
         self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
-        if self._fast:
-            self.chain.compiled = CompiledIDSolver(self.n, self.nv, self._C.shape[0], self._A.shape[0])
-        self._load_compiled()
-
-    def _load_compiled(self) -> None:
-        """Load the compiled assembly (and solver) for the types of these buffers and of a DynamicsState (M
-        column-major) at construction, not inside the first tick (:func:`wbc.compiled.specialise`: nothing runs)."""
-        nv, rows = self.nv, self._rows
         dynamics = IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), self.robot.q_ref.copy(), np.zeros(nv), 0.0)
-        specialise(id_assemble, rows.tasks, dynamics, rows.contacts, *self._buffers)
+        specialise(id_assemble, self._rows.tasks, dynamics, self._rows.contacts, *self._buffers)
         if self._fast:
-            H, g, A, b, C, l, u, lb, ub, _ = self._buffers[1]
-            specialise(id_solve, QPData(H, g, A, b, C, l, u, lb, ub), nv, 100, self.chain.compiled.buffers)
+            self.chain.compiled = CompiledIDSolver(self.n, nv, self._C.shape[0], self._A.shape[0])
+            qp = QPData(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            specialise(id_solve, qp, nv, 100, self.chain.compiled.buffers)
 
     def _layout_inequalities(self) -> None:
         r = r0 = self._r0
@@ -397,8 +391,9 @@ class InverseDynamicsQP:
 
     def solve(self, state: DynamicsState, dt: float) -> IDCommand:
         """Assemble the QP at ``state`` for control period ``dt`` (s), solve it by :attr:`chain` and decode the
-        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder off by
-        the solver's precision is refined first).
+        answer into an :class:`IDCommand` that passes the output check (:meth:`verify`; an answer of the ladder failing
+        it by at most :data:`~wbc.solvers.base.POLISH_RANGE` is refined first,
+        :meth:`~wbc.solvers.fallback.FallbackChain.refine`, before the chain's ``retry_deadline``).
 
         Raises:
             InvalidInputError: dt not finite and > 0.
@@ -429,13 +424,27 @@ class InverseDynamicsQP:
         why = self.chain.compiled_reason
         sol = self.solution_from(state, x, {"assembly": t1 - t0, "solve": perf_counter() - t1},
                                  TickPath("general", solver), f"{why} → {solver} {step}" if why else "")
-        return self._guard_full(state, sol, qp)
+        viol = self.verify(state, sol)
+        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=POLISH_RANGE)
+                and thread_time() < self.chain.retry_deadline):
+            def candidate(x, solver):  # a refined answer's command (solver None: polished) if it passes, else None
+                path = sol.path if solver is None else TickPath("general", solver)
+                reason = f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}"
+                cand = self.solution_from(state, x, sol.timings, path, reason)
+                return None if self.verify(state, cand) else cand
+
+            refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp, candidate, sol.path.solver)
+            if refined is not None:
+                self.last_violations = []
+                return refined
+        self.last_violations = viol
+        if viol:
+            raise _output_check_error(sol, viol)
+        return sol
 
     def build(self, state: DynamicsState, dt: float) -> QPData:
-        """The QP at ``state`` for control period ``dt`` (s) (module docstring), as every backend gets it: views of
-        the preallocated arrays, written in place (constant blocks are not rewritten). The one assembly: the rows
-        gathered, :func:`~wbc.formulations.idkernel.id_assemble`, the dependent contact directions dropped, the rows
-        of hard tasks and added constraints by their ``write``."""
+        """The QP at ``state`` for control period ``dt`` (s) (module docstring: the one assembly), as every backend
+        gets it: views of the preallocated arrays, written in place (constant blocks are not rewritten)."""
         rows = self._rows
         rows.gather(self, state)
         self._refresh_contact_rows()
@@ -478,30 +487,6 @@ class InverseDynamicsQP:
         """:func:`nonfinite_references` of the QP's weighted and hard tasks."""
         return nonfinite_references((*self.tasks, *(h.task for h in self.hard_tasks)))
 
-    def _guard_full(self, state: DynamicsState, sol: IDCommand, qp: tuple) -> IDCommand:
-        """``sol`` (a full-QP answer of the chain to ``qp``) when it passes the output check; one failing it by at
-        most :data:`~wbc.solvers.base.POLISH_RANGE` is refined (:meth:`~wbc.solvers.fallback.FallbackChain.refine`)
-        before the chain's ``retry_deadline``. Raises SolverError (with ``sol``'s violations) when no candidate
-        passes."""
-        viol = self.verify(state, sol)
-        if (viol and viol[0][0] != "non_finite_command" and not self.verify(state, sol, tol=POLISH_RANGE)
-                and thread_time() < self.chain.retry_deadline):
-            refined = self.chain.refine(np.concatenate((sol.dv, sol.forces)), qp,
-                                        lambda x, solver: self._candidate(state, sol, x, solver), sol.path.solver)
-            if refined is not None:
-                self.last_violations = []
-                return refined
-        self.last_violations = viol
-        if viol:
-            raise _output_check_error(sol, viol)
-        return sol
-
-    def _candidate(self, state: DynamicsState, sol: IDCommand, x: np.ndarray, solver: str | None):
-        """The solution of a refined candidate ``x`` of ``sol`` (``solver`` None: polished) if it passes, else None."""
-        cand = self.solution_from(state, x, sol.timings, sol.path if solver is None else TickPath("general", solver),
-                                  f"{sol.path_reason or 'output check'} → {'polished' if solver is None else solver}")
-        return None if self.verify(state, cand) else cand
-
     def verify(self, state: DynamicsState, sol: IDCommand, *, relaxed: bool = False,
                tol: float | None = None) -> list[tuple[str, float]]:
         """The output check of ``sol`` at ``state`` (:class:`~wbc.formulations.idkernel.IDOutputCheck`) at
@@ -529,10 +514,8 @@ class InverseDynamicsQP:
         for con in self.constraints:
             if not con.enabled or (con.relaxable and not include_relaxable):
                 continue
-            if con.kind == "equality":
-                eq.append((con.name, con.rows.start, con.rows.stop))
-            elif con.kind == "inequality":
-                ineq.append((con.name, con.rows.start, con.rows.stop))
+            if con.kind in ("equality", "inequality"):
+                (eq if con.kind == "equality" else ineq).append((con.name, con.rows.start, con.rows.stop))
             elif con.kind == "bounds" and (con is not self.joint_acceleration_limits or self.joint_limits):
                 box.append((con.name, con.indices, lb[con.indices], ub[con.indices]))
         conflicts, _ = diagnose(A, b, C, l, u, lb, ub, eq, ineq, box, tol=tol)

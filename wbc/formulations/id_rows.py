@@ -6,20 +6,11 @@ from __future__ import annotations
 import numpy as np
 
 from wbc.formulations.idkernel import (IDContactData, IDTaskRows, R_ACC_FF, R_DRIFT, R_ERROR, R_ERROR_RATE_FF, R_KD,
-                                       R_KP, R_WEIGHT, contact_views)
+                                       R_KP, R_WEIGHT)
 from wbc.state import DynamicsState
 from wbc.tasks.posture import PostureTask
 
 __all__ = ["IDProblemRows"]
-
-
-def _write_feedforward(row: np.ndarray, ff: np.ndarray | None) -> bool:
-    """Write ``ff`` (ė_ff or ä_ff, (m,); None: zeros) into its row of R. Returns whether the row holds zeros."""
-    if ff is None:
-        row.fill(0.0)
-        return True
-    row[...] = ff
-    return False
 
 
 class IDProblemRows:
@@ -29,14 +20,13 @@ class IDProblemRows:
 
     def __init__(self, qp):
         nv, nc = qp.nv, len(qp.contacts)
-        # Jc, Gc, Rc, cdrift, ckd: views of one buffer, the compiled tick's one argument for them (contact_views)
-        self.cbuf = np.zeros(nc * (6 * nv + 72 + 9 + 6 + 1))
-        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = contact_views(self.cbuf, nc, nv)
+        shapes = ((6, nv), (6, 12), (3, 3), (6,), ())
+        self.Jc, self.Gc, self.Rc, self.cdrift, self.ckd = (np.zeros((nc, *shape)) for shape in shapes)
         # per contact: its views of Jc, Gc, Rc, cdrift, ckd (an Ellipsis assignment into a view is the cheapest copy)
         self._contact_views = [(c, self.Jc[i], self.Gc[i], self.Rc[i], self.cdrift[i], self.ckd[i:i + 1])
                                for i, c in enumerate(qp.contacts)]
         self.active = np.zeros(nc, dtype=np.bool_)
-        self.contacts = IDContactData(self.cbuf, self.active)
+        self.contacts = IDContactData(self.Jc, self.Gc, self.cdrift, self.ckd, self.active)
         self._rotations: tuple = (None, [])
         self.relayout(qp)
 
@@ -75,10 +65,12 @@ class IDProblemRows:
                 drift[...] = task.drift(state)
             ff = task.feedforward()  # ė_ff, then ä_ff, into their rows (None: zeros, written once)
             if ff is not None or not eff_zero:
-                ent[11] = _write_feedforward(eff, ff)
+                eff[...] = 0.0 if ff is None else ff
+                ent[11] = ff is None
             ff = ref.feedforward_acceleration
             if ff is not None or not aff_zero:
-                ent[12] = _write_feedforward(aff, ff)
+                aff[...] = 0.0 if ff is None else ff
+                ent[12] = ff is None
             w[...] = ref.weight
             kp, kd = ref.kp, ref.kd
             if gains is None or gains[0] != kp or gains[1] != kd:

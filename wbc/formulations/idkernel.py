@@ -21,14 +21,14 @@ from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
 __all__ = ["contact_rows_well_conditioned", "inverse_diagonal", "id_assemble", "id_command", "load_id_kernels",
-           "output_violations", "contact_views", "task_cost", "IDTaskRows", "IDDynamics",
+           "output_violations", "task_cost", "IDTaskRows", "IDDynamics",
            "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
            "IDOutputCheck"]
 
 #: the arguments of :func:`id_assemble` (namedtuples, fields described there)
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
 IDDynamics = namedtuple("IDDynamics", "M h q v dt")
-IDContactData = namedtuple("IDContactData", "cbuf active")
+IDContactData = namedtuple("IDContactData", "Jc Gc cdrift ckd active")
 IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
 IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
 IDAssemblyWork = namedtuple("IDAssemblyWork", "Hw gw gram gram_y jlo jhi")
@@ -106,22 +106,6 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     for r in range(m):
         tinv += y[r]
     return 1.0 / tinv >= ratio * ratio * tr
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def contact_views(cbuf, nc, nv):
-    """(Jc (nc, 6, nv), Gc (nc, 6, 12), Rc (nc, 3, 3), cdrift (nc, 6), ckd (nc,)): the contact data of
-    :func:`id_assemble` as disjoint views of one float64 buffer cbuf (nc (6 nv + 88),)."""
-    o = 6 * nv * nc
-    Jc = cbuf[0:o].reshape((nc, 6, nv))
-    Gc = cbuf[o:o + 72 * nc].reshape((nc, 6, 12))
-    o += 72 * nc
-    Rc = cbuf[o:o + 9 * nc].reshape((nc, 3, 3))
-    o += 9 * nc
-    cdrift = cbuf[o:o + 6 * nc].reshape((nc, 6))
-    o += 6 * nc
-    ckd = cbuf[o:o + nc]
-    return Jc, Gc, Rc, cdrift, ckd
 
 
 #: entries of :func:`id_assemble`'s ``par`` vector
@@ -207,8 +191,8 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     Args (namedtuples):
         tasks (:data:`IDTaskRows`): the stacked task rows of :func:`task_cost`.
         dynamics (:data:`IDDynamics`): M (nv, nv), h (nv,), q (nq,), v (nv,) of the state; dt: control period (s).
-        contacts (:data:`IDContactData`): cbuf, the contact data of :func:`contact_views` (LOCAL sole Jacobians,
-            corner maps, sole rotations world ← sole, eq. 5's cdrift = −J̇v − K_p e and K_d); active (nc,) bool.
+        contacts (:data:`IDContactData`): Jc (nc, 6, nv) the LOCAL sole Jacobians, Gc (nc, 6, 12) the corner maps,
+            eq. 5's cdrift = −J̇v − K_p e (nc, 6) and K_d (nc,), active (nc,) bool.
         limits (:data:`IDLimits`): idx int64 [vrows (nt,) | iq (k,) | iv (k,)], the v indices of the torque-limited
             joints, then the q and v indices of the joint-bounded ones; lim (nt,) their torque limits (N·m); par (5,)
             the settings ``PAR_*``; qmin, qmax, vmax (k,) joint-limit data (eq. 9).
@@ -222,10 +206,8 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     """
     Jt, R, pidx, rt = tasks
     M, h, q, v, dt = dynamics
-    cbuf, active = contacts
+    Jc, Gc, cdrift, ckd, active = contacts
     idx, lim, par, qmin, qmax, vmax = limits
-    nv = M.shape[0]
-    Jc, Gc, Rc, cdrift, ckd = contact_views(cbuf, active.shape[0], nv)
     nt = lim.shape[0]
     k = qmin.shape[0]
     vrows, iq, iv = idx[0:nt], idx[nt:nt + k], idx[nt + k:nt + 2 * k]

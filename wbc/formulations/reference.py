@@ -20,7 +20,7 @@ import math
 import numba as nb
 import numpy as np
 
-from wbc.compiled import FASTMATH, once_per_process
+from wbc.compiled import FASTMATH
 from wbc.configuration import check_vector
 from wbc.exceptions import InvalidInputError, InvalidTargetError
 from wbc.geometry import check_scalar
@@ -34,24 +34,6 @@ __all__ = ["AccelerationReference"]
 def reference_rhs(acc_ff, kp, e, kd, e_dot, e_dot_ff, drift):
     """Eq. 1 for one task row, ė = J v given (task units /s²): the one formula of r, for hard and weighted tasks."""
     return acc_ff - kp * e - kd * (e_dot - e_dot_ff) - drift
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def reference_rows(J, e, e_dot_ff, drift, acc_ff, kp, kd, v, r):
-    """r (m,) ← eq. 1 for the rows J (m, nv), e, ė_ff, J̇v, ä_ff (m,) of one task at velocity v (nv,)."""
-    nv = J.shape[1]
-    for k in range(J.shape[0]):
-        jv = 0.0
-        for j in range(nv):
-            jv += J[k, j] * v[j]
-        r[k] = reference_rhs(acc_ff[k], kp, e[k], kd, jv, e_dot_ff[k], drift[k])
-
-
-@once_per_process
-def _warm_up() -> None:
-    """Load :func:`reference_rows` once per process, at construction of a reference."""
-    z = np.zeros(1)
-    reference_rows(np.zeros((1, 1)), z, z, z, z, 1.0, 1.0, z, np.empty(1))
 
 
 class AccelerationReference:
@@ -87,7 +69,6 @@ class AccelerationReference:
         self.weight = task.weight if weight is None else weight
         self._acc_ff: np.ndarray | None = None
         self.last_error = np.zeros(self.dim)
-        _warm_up()
 
     kp = ValidatedAttribute(lambda ref, kp: check_scalar(kp, f"{ref.name} kp", "1/s²"),
                             "Kp (1/s², finite, ≥ 0). Raises InvalidInputError on assignment of anything else.")
@@ -136,14 +117,7 @@ class AccelerationReference:
         task = self.task
         e, J = task.compute(state)
         self.last_error = e
-        m = self.dim
-        zero = np.zeros(m)
-        e_dot_ff = task.feedforward()
-        r = np.empty(m)
-        reference_rows(np.ascontiguousarray(J, dtype=float), np.ascontiguousarray(e, dtype=float),
-                       zero if e_dot_ff is None else np.ascontiguousarray(e_dot_ff, dtype=float),
-                       np.ascontiguousarray(task.drift(state), dtype=float),
-                       zero if self._acc_ff is None else self._acc_ff, float(self.kp), float(self.kd),
-                       np.ascontiguousarray(state.v, dtype=float), r)
-        return J, r
-
+        e_dot_ff = task.feedforward()  # (eq. 1 as the compiled assembly writes it, in numpy: hard tasks only)
+        r = reference_rhs.py_func(0.0 if self._acc_ff is None else self._acc_ff, self.kp, e, self.kd, J @ state.v,
+                                  0.0 if e_dot_ff is None else e_dot_ff, task.drift(state))
+        return J, np.asarray(r, dtype=float)
