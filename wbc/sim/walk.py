@@ -609,7 +609,14 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             self._relative_ground(k, q)
         for side, (_, k_lift, k_td, fs) in self._active.items():
             sw.set_landing_due(side, tp >= k_td * dt - 1e-9)
-        sw.update(t, q, v, self.measured_normal_force)
+        # State quantities (CoM velocity, soles) for the DCM and the log; the switcher reads its armed soles from
+        # the same forward pass. (centerOfMass with v runs the forward kinematics: only the soles' placements are
+        # then updated)
+        model, data, fid = self._model, self._data, self._fid
+        pin.centerOfMass(model, data, q, v)
+        pin.updateFramePlacement(model, data, fid["left"])
+        pin.updateFramePlacement(model, data, fid["right"])
+        sw.update(t, q, v, self.measured_normal_force, data)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
@@ -649,12 +656,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 del self._active[side]
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
-        # State quantities (CoM velocity, soles) for the DCM and the log.
-        # (centerOfMass with v runs the forward kinematics: only the soles' placements are then updated)
-        model, data, fid = self._model, self._data, self._fid
-        pin.centerOfMass(model, data, q, v)
-        pin.updateFramePlacement(model, data, fid["left"])
-        pin.updateFramePlacement(model, data, fid["right"])
         self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
