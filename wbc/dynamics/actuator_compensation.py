@@ -74,10 +74,9 @@ class JointFrictionCompensation:
         n = self.damping.shape[0]
         contiguous = True
         for a in (tau, v, dv, tau_min, tau_max):
-            if type(a) is not np.ndarray or a.dtype is not FLOAT64 or a.ndim != 1:
-                if type(a) is not np.ndarray or a.dtype != FLOAT64 or a.ndim != 1:
-                    contiguous = None
-                    break
+            if type(a) is not np.ndarray or (a.dtype is not FLOAT64 and a.dtype != FLOAT64) or a.ndim != 1:
+                contiguous = None
+                break
             contiguous = contiguous and a.flags.c_contiguous
         if contiguous is None or tau.shape[0] != n or v.shape[0] != n + 6 or dv.shape[0] != n + 6 \
                 or tau_min.shape[0] != n or tau_max.shape[0] != n:
