@@ -8,7 +8,7 @@
    process (its scenario helpers live in ``tests/``);
 3. then ``benchmarks/sim_rtf.py`` (real-time factor of the Talos 20-step physics walk, ``wbc sim walk``: ID tick +
    MuJoCo step + sensors, estimator and outcome checks; CPU and wall time of the closed loop, start-up excluded,
-   load average printed; target CPU real-time factor ≥ 5), in a child process (skipped with ``--quick``).
+   load average printed; target CPU real-time factor ≥ 6, issue 59), in a child process (skipped with ``--quick``).
 
 Outputs in ``benchmarks/results/`` next to this file (not committed): results.json, results.md (the self-collision
 report appended), latency.png, latencies.npz, self_collision.json. Extra arguments are passed to ``wbc bench``

@@ -71,7 +71,10 @@ class DynamicsState(Configuration):
         self._views: tuple | None = None
         super().__init__(robot, q)
         self._com = self._com_buf  # com: this array, rewritten by update with the centroidal quantities
-        _state_inputs_ok(self.q, self.v, robot.model.nq, nv)  # loaded here, not inside the first tick
+        self._nq, self._nv = robot.model.nq, nv  # (ints: not read through the Model's bindings every tick)
+        # update's input check, for the contiguous float vectors it tests for first (wbc.compiled.specialise; with
+        # kernel type checks on, the dispatcher), loaded here, not inside the first tick
+        self._inputs_ok = _state_inputs_ok if CHECK_TYPES else specialise(_state_inputs_ok, self.q, self.v, 7, 6)
 
     def update(self, q: np.ndarray | None = None, v: np.ndarray | None = None) -> None:  # type: ignore[override]
         """Set (q, v) when given and recompute every quantity (module docstring).
@@ -81,7 +84,7 @@ class DynamicsState(Configuration):
         """
         if type(q) is np.ndarray and type(v) is np.ndarray and q.dtype == _F64 and v.dtype == _F64 \
                 and q.ndim == 1 and v.ndim == 1 and q.flags.c_contiguous and v.flags.c_contiguous \
-                and _state_inputs_ok(q, v, self.model.nq, self.model.nv):
+                and self._inputs_ok(q, v, self._nq, self._nv):
             self.q = q  # float (nq,) and (nv,) arrays, finite, unit base quaternion: the checks below, in one call
             self.v = v
         else:

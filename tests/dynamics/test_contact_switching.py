@@ -57,6 +57,32 @@ def test_ramp_out_release_touchdown_ramp_in(robot):
     assert [e[2] for e in sw.events] == ["unload", "release", "touchdown", "loaded"]
 
 
+def test_kinematics_of_the_caller_read_as_its_own_forward_pass(robot):
+    """update(..., kinematics=data) with a Data on which pin.centerOfMass(q, v) ran (its forward pass) reads the
+    armed sole's height and vertical speed bit for bit as the switcher's own forward pass, and detects the same
+    touch-down; the Data of the caller is then the one sole_height_velocity reads."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(3)
+    model = robot.model
+    for trial in range(5):
+        _, q, v, own = _unloading_right(robot, full_force=1000.0)
+        _, _, _, shared = _unloading_right(robot, full_force=1000.0)
+        q = pin.integrate(model, q, rng.normal(0.0, 0.02, robot.nv))
+        v = rng.normal(0.0, 0.05, robot.nv)
+        q[2] += 0.002 * trial  # the sole from the floor to 8 mm above it: both sides of the threshold
+        for sw in (own, shared):
+            sw.update(0.04, q, v)
+            sw.arm("right")
+        data = model.createData()
+        pin.centerOfMass(model, data, q, v)
+        own.update(0.042, q, v)
+        shared.update(0.042, q, v, None, data)
+        assert shared.sole_height_velocity("right") == own.sole_height_velocity("right")
+        assert shared.phase("right") == own.phase("right")
+        assert shared.events == own.events
+
+
 def test_bad_input(robot):
     c = IDBalanceController(robot)
     with pytest.raises(InvalidInputError, match="ramp_time"):

@@ -18,8 +18,9 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from wbc.compiled import once_per_process
+from wbc.compiled import once_per_process, specialise
 from wbc.exceptions import InvalidInputError
+from wbc.geometry import FLOAT64
 
 __all__ = ["JointFrictionCompensation"]
 
@@ -49,6 +50,9 @@ class JointFrictionCompensation:
         self._out = np.empty_like(d)
         self._vj, self._x = np.empty_like(d), np.empty_like(d)
         _warm_up()
+        v = np.zeros(d.shape[0] + 6)
+        self._kernels = (specialise(_commanded_velocity, v, v, 0.002, 0.05, self._vj, self._x),
+                         specialise(_add_clipped, *(self._x,) * 8))
 
     def torque(self, joint_velocity: np.ndarray) -> np.ndarray:
         """(n,) compensation torque (N·m) for the joint velocities q̇* (n,) rad/s (a reused array)."""
@@ -68,17 +72,24 @@ class JointFrictionCompensation:
             InvalidInputError: arrays of the wrong shape.
         """
         n = self.damping.shape[0]
-        arrays = (tau, v, dv, tau_min, tau_max)
-        if not all(type(a) is np.ndarray and a.dtype == float and a.ndim == 1 for a in arrays) \
-                or tau.shape[0] != n or v.shape[0] != n + 6 or dv.shape[0] != n + 6 \
+        contiguous = True
+        for a in (tau, v, dv, tau_min, tau_max):
+            if type(a) is not np.ndarray or (a.dtype is not FLOAT64 and a.dtype != FLOAT64) or a.ndim != 1:
+                contiguous = None
+                break
+            contiguous = contiguous and a.flags.c_contiguous
+        if contiguous is None or tau.shape[0] != n or v.shape[0] != n + 6 or dv.shape[0] != n + 6 \
                 or tau_min.shape[0] != n or tau_max.shape[0] != n:
             raise InvalidInputError(f"compensated needs float arrays tau ({n},), v and dv ({n + 6},), tau_min and "
                                     f"tau_max ({n},)")
         vj, x = self._vj, self._x
-        _commanded_velocity(v, dv, float(dt), self.velocity_scale, vj, x)
+        # contiguous float vectors (the controller's): the kernels' versions for them without the dispatcher's type
+        # resolution (wbc.compiled.specialise), else the dispatchers
+        velocity, add = self._kernels if contiguous else (_commanded_velocity, _add_clipped)
+        velocity(v, dv, float(dt), self.velocity_scale, vj, x)
         np.tanh(x, out=x)  # (numpy's tanh, as torque: its CPU-dispatched kernel may differ from libm in the last bit)
         out = np.empty(n)
-        _add_clipped(tau, x, self.friction, self.damping, vj, tau_min, tau_max, out)
+        add(tau, x, self.friction, self.damping, vj, tau_min, tau_max, out)
         return out
 
 

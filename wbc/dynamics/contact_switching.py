@@ -135,6 +135,7 @@ class ContactSwitcher:
         self.touchdown_speed = float(touchdown_speed)
         self._model = robot.model
         self._data = robot.model.createData()
+        self._kinematics = self._data  # the Data of the last update's sole placements and velocities
         self._fid = {s: robot.frame_id(robot.left_sole if s == "left" else robot.right_sole) for s in SIDES}
         self._phase = {s: "stance" for s in SIDES}
         self._t0 = {s: 0.0 for s in SIDES}
@@ -223,23 +224,32 @@ class ContactSwitcher:
     def sole_height_velocity(self, side: str) -> tuple[float, float]:
         """(z (m), ż (m/s)) of the sole frame at the last :meth:`update` state (world)."""
         fid = self._fid[self._side(side)]
-        z = float(self._data.oMf[fid].translation[2])
-        vz = float(pin.getFrameVelocity(self._model, self._data, fid, pin.LOCAL_WORLD_ALIGNED).linear[2])
+        data = self._kinematics
+        z = float(data.oMf[fid].translation[2])
+        vz = float(pin.getFrameVelocity(self._model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear[2])
         return z, vz
 
-    def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None) -> None:
+    def update(self, t: float, q: np.ndarray, v: np.ndarray, normal_force=None, kinematics=None) -> None:
         """Advance the ramps and detect touch-down at time t (s) from the measured (q (nq,), v (nv,)) and, with
         ``touchdown_force`` set, the measured normal force of each sole ``normal_force`` ((2,) N, (left, right),
         e.g. from the ankle F/T sensors; None: the state test alone). The measured force also floors the ramp-in
         bound of a loading sole (module docstring).
 
+        ``kinematics``: None, or a Pinocchio Data of the robot's model holding ``pin.forwardKinematics`` at this
+        (q, v) (e.g. after ``pin.centerOfMass(model, data, q, v)``, whose forward pass gives the same numbers), read
+        for the armed soles' placements and velocities instead of a forward pass of the switcher's own (the
+        caller keeps it unchanged until the next update).
+
         Call once per tick before the controller computes.
         """
         if self._armed["left"] or self._armed["right"]:
-            pin.forwardKinematics(self._model, self._data, q, v)
+            data = self._data if kinematics is None else kinematics
+            if kinematics is None:
+                pin.forwardKinematics(self._model, data, q, v)
             for s in SIDES:
                 if self._armed[s]:
-                    pin.updateFramePlacement(self._model, self._data, self._fid[s])
+                    pin.updateFramePlacement(self._model, data, self._fid[s])
+            self._kinematics = data
         c = self.controller
         for s in SIDES:
             ph = self._phase[s]

@@ -7,7 +7,7 @@ Build instances with :func:`wbc.sim.mujoco_model.build_mujoco_model`; the conven
 from __future__ import annotations
 
 import difflib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -66,6 +66,9 @@ class MujocoModel:
     drive: object | None = None
     ground_geoms: np.ndarray | None = None
     terrain: object | None = None
+    #: (MjData, its qvel, its ctrl, (nv - 6,)): :meth:`set_torques`' views of the fixed buffers of the last MjData
+    #: it wrote (one binding call each, not per tick)
+    _torque_views: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def timestep(self) -> float:
@@ -128,8 +131,8 @@ class MujocoModel:
         drive = self.drive
         if drive is not None and type(tau) is np.ndarray and tau.dtype == FLOAT64 \
                 and hasattr(drive, "write_available_torque"):
-            views = self.__dict__.get("_torque_views")
-            if views is None or views[0] is not d:  # (qvel, ctrl: views of fixed buffers of that MjData, kept)
+            views = self._torque_views
+            if views is None or views[0] is not d:
                 views = self._torque_views = (d, d.qvel, d.ctrl, (self.state_map.nv - 6,))
             if tau.shape == views[3] and drive.write_available_torque(tau, views[1], self.state_map.mj_qvel, views[2],
                                                                       self.actuator_ids):

@@ -370,8 +370,10 @@ class OutcomeMonitor:
         if worst > self.max_speed_ratio:
             self.max_speed_ratio, self.max_speed_joint = worst, self.joint_names[j]
         # -- tilt ----------------------------------------------------------------------------------------------
-        # (the angle acos(c) in degrees, which only grows as c falls: computed for a cosine below the smallest so
-        # far — a new largest tilt — or below the fall's)
+        # The kernel gives the cosines c; the angle acos(c) (degrees) grows as c falls, so only a cosine below the
+        # smallest so far (_cos_min: a new largest tilt) or below the fall's (cos_tilt) can change max_tilt_deg or
+        # the verdict. On every other tick (nearly all) acos is skipped: the same results, less work per tick. A NaN
+        # cosine passes no comparison, as its NaN angle would not.
         max_tilt, cos_min, cos_tilt = self.max_tilt_deg, self._cos_min, self.cos_tilt
         tilted = []
         if c_pelvis < cos_min[0] or c_torso < cos_min[1] or c_pelvis < cos_tilt or c_torso < cos_tilt:

@@ -609,7 +609,13 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             self._relative_ground(k, q)
         for side, (_, k_lift, k_td, fs) in self._active.items():
             sw.set_landing_due(side, tp >= k_td * dt - 1e-9)
-        sw.update(t, q, v, self.measured_normal_force)
+        # CoM, its velocity and the soles for the DCM, the log and the switcher's armed soles: one forward pass (inside
+        # centerOfMass with v), then the soles' placements alone
+        model, data, fid = self._model, self._data, self._fid
+        pin.centerOfMass(model, data, q, v)
+        pin.updateFramePlacement(model, data, fid["left"])
+        pin.updateFramePlacement(model, data, fid["right"])
+        sw.update(t, q, v, self.measured_normal_force, data)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
@@ -649,12 +655,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 del self._active[side]
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
-        # State quantities (CoM velocity, soles) for the DCM and the log.
-        # (centerOfMass with v runs the forward kinematics: only the soles' placements are then updated)
-        model, data, fid = self._model, self._data, self._fid
-        pin.centerOfMass(model, data, q, v)
-        pin.updateFramePlacement(model, data, fid["left"])
-        pin.updateFramePlacement(model, data, fid["right"])
         self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)
         c, cd = self._com_view, self._vcom_view  # data.com[0], data.vcom[0]
         w = plan.omega
@@ -702,8 +702,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         lg_phase[i] = (_PHASE_CODE[sw.phase("left")], _PHASE_CODE[sw.phase("right")])
         (_, R0, p0), (_, R1, p1) = self._sole_views["left"], self._sole_views["right"]
         lg_xy[i] = (p0[:2], p1[:2])
-        r0, r1 = R0[:2, 0].tolist(), R1[:2, 0].tolist()
-        lg_yaw[i] = (math.atan2(r0[1], r0[0]), math.atan2(r1[1], r1[0]))
+        lg_yaw[i, 0] = math.atan2(R0[1, 0], R0[0, 0])
+        lg_yaw[i, 1] = math.atan2(R1[1, 0], R1[0, 0])
         self._k += 1
         if self.step_adjust and self._next >= len(self.swings) and not self._active and not self.from_state \
                 and not self.recovery_failures \
