@@ -106,9 +106,10 @@ def test_prepare_layouts_refuses_bad_arguments(robots):
 
 def test_prepared_ticks_pay_no_one_time_cost(robots, monkeypatch):
     """The one-time costs of the compiled tick are paid before the ticks: the configuration's lookahead Data is made
-    with the configuration (the one its first lookahead returns), the biped's drift kernel is specialised when the
-    plan is made, the tick kernel by ``prepare_layouts``; then six ticks of a swaying Talos, at least four of them
-    compiled (each drift-checked: two soles), call :func:`wbc.compiled.specialise` zero times."""
+    with the configuration (the one its first lookahead returns), the tick kernel and the biped's drift kernel are
+    specialised once per process, when the first plan is made; then six ticks of a swaying Talos, at least four of
+    them compiled (each drift-checked: two soles), call :func:`wbc.compiled.specialise` zero times, after
+    ``prepare_layouts`` or, for a second controller, in its first ticks (a new plan)."""
     import wbc.controllers.compiled_tick as compiled_tick
 
     robot, config, ctrl, _ = _swaying(robots)
@@ -118,11 +119,14 @@ def test_prepared_ticks_pay_no_one_time_cost(robots, monkeypatch):
     calls = []
     real = compiled_tick.specialise
     monkeypatch.setattr(compiled_tick, "specialise", lambda *a: calls.append(a[0]) or real(*a))
-    paths = []
-    for _ in range(6):
-        res = ctrl.solve(config, DT)
-        assert res.ok, res.message
-        paths.append(str(res.path))
-        config.step(res.v, DT)
-    assert paths.count("compiled") >= 4, paths
-    assert calls == []
+    for prepared in (True, False):
+        if not prepared:
+            robot, config, ctrl, _ = _swaying(robots)
+        paths = []
+        for _ in range(6):
+            res = ctrl.solve(config, DT)
+            assert res.ok, res.message
+            paths.append(str(res.path))
+            config.step(res.v, DT)
+        assert paths.count("compiled") >= 4, paths
+        assert calls == []

@@ -222,14 +222,12 @@ def test_compiled_and_general_solvers_receive_one_assembled_qp(draw):
         received.append((bufs.fb, bufs.fb.copy(), it, args[3].copy()))
         return it, guard
 
-    specialise = compiled_tick.specialise
-    compiled_tick.kinematic_tick_packed = spy
-    compiled_tick.specialise = lambda kernel, *args: kernel  # the spy is called as is (not a numba kernel)
+    kernel = compiled_tick.FusedPlan.tick_kernel  # (specialised once per process, with the first plan)
+    compiled_tick.FusedPlan.tick_kernel = spy
     try:
         fast.solve(config, dt)
     finally:
-        compiled_tick.kinematic_tick_packed = tick_packed
-        compiled_tick.specialise = specialise
+        compiled_tick.FusedPlan.tick_kernel = kernel
     handed = []  # what the general path hands its backend
 
     def backend_spy(*qp, _solve=general.backend.solve, **kw):

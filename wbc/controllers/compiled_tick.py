@@ -17,8 +17,8 @@ from wbc.configuration import LOCAL_WORLD_ALIGNED, Configuration
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import InvalidInputError
 from wbc.controllers.output_guard import command_fault
-from wbc.formulations.velocity_kernel import (NONFINITE_RHS, TickBuffers, contact_drift, contact_pair_drift,
-                                              kinematic_tick_packed, kinematic_views)
+from wbc.formulations.velocity_kernel import (NO_KERNEL_BOX, NONFINITE_RHS, TickBuffers, contact_drift,
+                                              contact_pair_drift, kinematic_tick_packed, kinematic_views)
 from wbc.solvers import FastBackend
 from wbc.solvers.hierarchy import independent_rows
 from wbc.tick import TickPath, TickResult, solved_result
@@ -80,7 +80,7 @@ class CompiledTick:
             self._eq_rows = saved[2]
 
     def _prepare_fused(self, config: Configuration, dt: float) -> None:
-        """The compiled tick's plan of the current layouts with its box and specialised kernel (prepare_layouts)."""
+        """The compiled tick's plan of the current layouts with its box (prepare_layouts)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return
         plan = self._kept_fused_plan()
@@ -88,14 +88,6 @@ class CompiledTick:
             return
         if plan.box is None:
             plan.box = self._kernel_box(config, dt)
-        q = config.q
-        if plan.tick_kernel is None and type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous \
-                and q.flags.writeable:
-            soft, backend = self._soft, self.backend
-            pgain = 0.0 if soft.posture is None else soft.posture.gain
-            args = (TickBuffers(*self._qp_pack, soft.fb, soft.ib, plan.states), soft.no_diff, pgain, self.damping,
-                    np.empty(self.nv), float(dt), backend.tolerance, backend.max_iter, q, plan.box)
-            plan.tick_kernel = specialise(kinematic_tick_packed, *args)
 
     def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
         """The compiled tick's plan for the current layouts, or None when it does not cover them (strict levels, a
@@ -143,6 +135,10 @@ class CompiledTick:
         plan.logs = np.zeros((len(self._contacts), 6))
         plan.contact_logs = list(zip(self._contacts, plan.logs))  # each contact with its row of logs (a view)
         plan.pair_rows = tuple(int(r0) for r0 in self._contact_starts)  # a pair's starts as ints (contact_pair_drift)
+        if FusedPlan.tick_kernel is None:  # the tick's argument types are fixed by construction (q: _fused_tick)
+            FusedPlan.tick_kernel = specialise(kinematic_tick_packed, TickBuffers(
+                *self._qp_pack, soft.fb, soft.ib, plan.states), soft.no_diff, 0.0, 0.0, np.empty(nv), 0.0, 0.0, 0,
+                np.empty(nv), NO_KERNEL_BOX)
         if FusedPlan.pair_drift is None and len(plan.logs) == 2:  # log_operands' types: data.oMf's R is F-ordered
             frame, b = (np.zeros((4, 3)), np.zeros((3, 3), order="F"), np.zeros(3)), np.zeros(12)
             FusedPlan.pair_drift = specialise(contact_pair_drift, frame, frame, plan.logs, b, 0, 6, 0.0, 0.0, 0.0)
@@ -177,11 +173,9 @@ class CompiledTick:
         # one compiled call: the cost, its finite check and b's, the solve, the output guard's screens
         args = (bufs, self._posture_diff, self._posture_gain, self.damping, v, float(dt), tol,
                 budget.iteration_cap(backend.max_iter) if budget.clock_guard else backend.max_iter, q, box)
-        kernel = plan.tick_kernel
+        kernel = FusedPlan.tick_kernel
         if not (type(q) is np.ndarray and q.ndim == 1 and q.flags.c_contiguous and q.flags.writeable):
             kernel = kinematic_tick_packed  # a configuration's q of another type: numba's dispatch
-        elif kernel is None:  # the plan's first tick: the types of its buffers (and of q, checked above) are fixed
-            kernel = plan.tick_kernel = specialise(kinematic_tick_packed, *args)
         c0 = budget.work.seconds() if budget.clock_guard else 0.0
         it, guard = kernel(*args)
         if budget.clock_guard:  # the first solve's CPU time per iteration: the next ticks' caps (TickBudget)
@@ -238,7 +232,7 @@ class FusedPlan:
     (``rstate``) (−1 / 0 / 1: at the lower bound / free / at the upper bound), the contacts' log buffer."""
 
     supported = False
-    tick_kernel = None  # kinematic_tick_packed specialised to this plan's arguments (wbc.compiled.specialise)
+    tick_kernel = None  # kinematic_tick_packed specialised, once per process, when the first plan is made
     buffers = None  # its TickBuffers (made on the first tick)
     pair_drift = None  # contact_pair_drift specialised, once per process, when the first biped's plan is made
     box = None  # the kernel's box arguments (_kernel_box), made on the first tick
