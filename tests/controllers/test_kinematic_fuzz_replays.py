@@ -67,9 +67,9 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     """Fuzz seed 100012 episode 58 tick 6 (humanoid15, strict levels answered by their weighted form, Hessian
     conditioned 1e6, ‖g‖∞ 3e8): DAQP's warm and cold workspaces each stopped at 1000 iterations where its one-shot
     call solves the QP in 16; the 2016 iterations spent the tick's count, its contact correction and trust region
-    were skipped and the tick failed (sole drift 7.5e-5 m, ``fallback:contacts_held``). Now (its DAQP calls capped by
-    the tick's count, the one-shot call after a capped workspace) the tick is ok, its first QP's solution agrees with
-    quadprog's and the soles stay within the drift bound by forward kinematics."""
+    were skipped and the tick failed (sole drift 7.5e-5 m, ``fallback:contacts_held``). Now the one-shot call follows
+    the warm workspace's stop: the tick is ok, its first QP's solution agrees with quadprog's and the soles stay
+    within the drift bound by forward kinematics."""
     name, kind, strict, _, config, ctrl = fuzz_episode(robots, 100012, 58)
     assert (name, strict) == ("humanoid15", True)
     _run_to(ctrl, config, 6)

@@ -40,7 +40,8 @@ DUAL_RETRY_PRIMAL_FACTOR = 10.0
 class DaqpBackend(QPBackend, role="daqp"):
     """DAQP (Arnström, Bemporad, Axehill, "A dual active-set solver for embedded quadratic programming using
     recursive LDLᵀ updates", IEEE TAC 67(8), 2022): bounds are its simple bounds, equalities sense-5 rows. A failed
-    warm-started solve is repeated cold (a fresh workspace, then the one-shot ``daqp.solve``).
+    warm-started solve is repeated cold (a fresh workspace, then the one-shot ``daqp.solve``); a workspace call that
+    ran its whole ``iter_limit`` (cycling) is repeated with the one-shot call first.
 
     Args:
         tolerance: largest constraint violation accepted (constraint units).
@@ -201,6 +202,16 @@ class DaqpBackend(QPBackend, role="daqp"):
             if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit); next solve cold
                 self._model = None
                 return None
+            if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
+                # the workspace cycled to its iteration limit: the one-shot call, the cold workspace only after it
+                self._model = None
+                x = self._solve_oneshot(H, g)
+                if x is not None:
+                    self._oneshot_first = self._cold_ran = True
+                    return x
+                if self.budget_capped:
+                    return None
+                tried_oneshot = True
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         limit = self.call_limit()
