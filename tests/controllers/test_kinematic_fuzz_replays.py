@@ -454,3 +454,32 @@ def test_the_stage_iteration_cap_leaves_the_callers_own_cap(robots, monkeypatch,
     ctrl.solve(config, DT)
     assert ctrl.backend.call_iterations == caller_cap
     assert len(limits) > 1 and max(limits[1:]) <= (150 if caller_cap is None else min(150, caller_cap))
+
+
+@pytest.mark.parametrize("seed, episode, tick", [(8103, 348, 23), (8111, 320, 5)])
+def test_a_workspace_that_cycles_in_the_first_solve_hands_over_to_the_one_shot_call(robots, monkeypatch, seed,
+                                                                                     episode, tick):
+    """Failures of the 10⁶-tick kinematic fuzz (s72, 11 of them) with the one-shot call after a cycling workspace
+    removed: the tick's first solve (no stage cap yet) met a warm DAQP workspace that ran to its 1000-iteration
+    limit; sent on to a fresh workspace before the one-shot call, the tick's count stopped the contact correction and
+    the tick held (``fallback:hold``, drift 0.059 mm). With the one-shot call right after the cycling workspace the
+    tick is ok, a DAQP call of the tick reached the 1000-iteration limit, the soles within 0.05 mm and 3e-4 rad of
+    where their rows send them (forward kinematics, own Data)."""
+    name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
+    assert strict and dt == DT
+    _run_to(ctrl, config, tick)
+    iterations = []
+    timed = DaqpBackend._timed
+
+    def recorded(self, call):
+        out = timed(self, call)
+        iterations.append(int(out[3]["iterations"]))
+        return out
+
+    monkeypatch.setattr(DaqpBackend, "_timed", recorded)
+    res = ctrl.solve(config, DT)
+    assert res.ok, (res.path, res.message)
+    assert max(iterations) >= 1000  # (DAQP's own iteration limit: the workspace cycled)
+    assert np.all(np.abs(res.v[6:]) <= ctrl.robot.model.velocityLimit[6:] + 1e-9)
+    drift, turn = _sole_gaps_fk(ctrl, config, res.v)
+    assert drift <= SOLE_DRIFT and turn <= SOLE_TURN, (drift, turn)
