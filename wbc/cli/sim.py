@@ -416,6 +416,10 @@ def cmd_sim(args) -> int:
     summary["solver"] = args.solver if args.controller == "id" else None
     if args.scenario == "walk" and terrain is not None and getattr(scenario, "poses", None) is not None:
         _check_crossing(summary, terrain, scenario.poses, robot.sole_length)
+    if args.scenario == "walk" and terrain is not None:  # the legs' margin to the step edges (plant's state)
+        from wbc.sim.leg_clearance import leg_terrain_clearance
+
+        summary.update(leg_terrain_clearance(sim, run.q))
     if state is None:
         summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     else:
