@@ -79,3 +79,21 @@ def test_a_walk_that_ends_before_crossing_its_terrain_fails(cli):
     shortfall = float(failed.split("terrain_shortfall_m): measured ")[1].split(" ")[0])
     assert 0.3 < shortfall < 0.8 and "(required <= 0)" in failed
     assert not math.isnan(shortfall)
+
+
+def test_a_walk_without_steps_on_stairs_takes_the_steps_that_cross_them(cli):
+    """No --steps on a terrain with an end: the count is the fewest that cross it (said in a note), and the walk
+    crosses (terrain_shortfall_m <= 0, measured on the executed soles); one step fewer would not (the plan)."""
+    from wbc.robot import load_robot
+    from wbc.scenarios.terrain_walk import plan_default_terrain_walk
+
+    code, _, out = cli(["walk", "--terrain", "stairs:0.1:0.3:3:down"])
+    note = next(line for line in out.splitlines() if line.startswith("wbc walk: note: --steps not given"))
+    n = int(note.split("given: ")[1].split(" ")[0])
+    assert "the fewest that cross stairs:0.1:0.3:3:down (both heels past x = 0.800 m)" in note
+    shortfall = float(next(line for line in out.splitlines() if line.strip().startswith("terrain_shortfall_m"))
+                      .split()[-1])
+    assert shortfall <= 0.0 and "the walk crosses its terrain" not in out.split("failed_criteria")[-1]
+    robot = load_robot("talos")
+    holds = plan_default_terrain_walk(robot, "stairs:0.1:0.3:3:down", n_steps=n - 1).footholds
+    assert min(holds[-1][0, 3], holds[-2][0, 3]) - robot.sole_length / 2 < 0.8

@@ -215,3 +215,34 @@ def test_step_timing_bad_bound_and_per_step_durations_are_gait_errors():
     p = plan_walk(left, right, com, n_steps=3, t_ss=[0.6, 0.8, 1.0], t_ds=[0.2, 0.4, 0.3], sole_length=L,
                   sole_width=W)
     assert [round(ph.duration, 9) for ph in p.phases[1:-1]] == [0.6, 0.2, 0.8, 0.4, 1.0]
+
+
+@pytest.mark.parametrize("spec", ["stairs:0.15:0.3:3:updown", "stairs:0.23:0.3:6:down", "stairs:0.1:0.3:3:up"])
+def test_steps_to_cross_is_the_fewest_steps_whose_planned_feet_pass_the_end(spec):
+    """The count chosen: its full plan (footholds as planned, both heels measured) ends past the terrain's end,
+    one step fewer does not."""
+    from wbc.gait.terrain_walk import steps_to_cross
+
+    left, right, _ = _feet()
+    n = steps_to_cross(spec, left, right, step_length=0.3, sole_length=L, sole_width=W)
+    end = parse_terrain(spec).end_x
+
+    def heel(count):
+        holds = _plan(spec, n_steps=count).footholds
+        return min(holds[-1][0, 3], holds[-2][0, 3]) - L / 2
+
+    assert heel(n) >= end > heel(n - 1)
+
+
+def test_steps_to_cross_flat_plan_closed_form_and_no_end():
+    """Planned blind (the flat plan's footsteps): from feet side by side at x = 0, n steps of 0.3 m end side by side
+    at 0.3 (n - 1): the fewest with the heel past the end is ceil((end + L / 2) / 0.3) + 1. No end: None."""
+    from wbc.gait.terrain_walk import steps_to_cross
+
+    left, right, _ = _feet()
+    for spec in ("stairs:0.22:0.3:6:updown", "stairs:0.1:0.3:3:down", "slope:10"):
+        end = parse_terrain(spec).end_x
+        got = steps_to_cross(spec, left, right, step_length=0.3, sole_length=L, on_terrain=False)
+        assert got == math.ceil((end + L / 2) / 0.3 - 1e-12) + 1, spec
+    assert steps_to_cross("rough:0.02:1", left, right, step_length=0.3) is None
+    assert steps_to_cross("stairs:0.1:0.3:3", left, right, step_length=0.0) is None

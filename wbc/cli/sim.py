@@ -70,7 +70,8 @@ def check_sim_args(args) -> None:
                                 f"(walk, push-step), got {args.scenario} --state {args.state}")
     if args.duration is not None:
         check_ticks(f"--duration {args.duration:g}", args.duration, MAX_TIMESTEP)
-    if args.scenario == "walk" and args.step_duration is not None:  # (else checked once the robot's gait is known)
+    if args.scenario == "walk" and args.step_duration is not None and args.steps is not None:
+        # (else checked once the robot's gait is known, and the count chosen for the terrain)
         check_ticks(f"--steps {args.steps} --step-duration {args.step_duration:g}",
                     (args.steps + 2) * args.step_duration, MAX_TIMESTEP)
         if args.vx is not None and args.vx < 0:
@@ -127,7 +128,9 @@ def register(subparsers, add_outputs) -> None:
     p.add_argument("--mu", type=finite(0.0, 10.0, lo_open=True), default=0.7, help="friction coefficient of the controller (MuJoCo floor: 1.0)")
     p.add_argument("--f-min", type=finite(0.0), default=0.0, help="minimum normal force per sole corner, N (default 0)")
     w = p.add_argument_group("walk (wbc sim walk: gait plan tracked by the ID controller, see wbc.sim.walk)")
-    w.add_argument("--steps", type=count(2), default=8, help="walk: number of steps (default 8)")
+    w.add_argument("--steps", type=count(2), default=None,
+                   help="walk: number of steps (default 8; on a --terrain with an end, stairs or slope, the fewest "
+                        "steps whose footholds put both heels past it; an explicit count is kept)")
     w.add_argument("--step-length", type=finite(0.0, unit=" m", valid="0 m <= value (walking backwards is not "
                                                                      "planned), at most the legs' reach"), default=None,
                    help="walk: step length, m (default: the robot's gait, talos 0.15)")
@@ -321,6 +324,11 @@ def cmd_sim(args) -> int:
             from wbc.cli.walk import check_terrain_for_robot
 
             check_terrain_for_robot(terrain, robot)
+        if args.steps is None:
+            from wbc.cli.walk import choose_steps
+
+            choose_steps(args, robot, terrain, blind=args.blind, prog="wbc sim")
+            check_sim_args(args)  # (the count's run length)
     _check_push_force(args, robot)
     factor = NO_LOAD_SPEED_FACTOR if args.no_load_factor is None else args.no_load_factor
     drives = actuator_model(robot, args.plant, no_load_factor=factor)
@@ -408,6 +416,10 @@ def cmd_sim(args) -> int:
     summary["solver"] = args.solver if args.controller == "id" else None
     if args.scenario == "walk" and terrain is not None and getattr(scenario, "poses", None) is not None:
         _check_crossing(summary, terrain, scenario.poses, robot.sole_length)
+    if args.scenario == "walk" and terrain is not None:  # the legs' margin to the step edges (plant's state)
+        from wbc.sim.leg_clearance import leg_terrain_clearance
+
+        summary.update(leg_terrain_clearance(sim, run.q))
     if state is None:
         summary["state_source"] = "MuJoCo ground truth (qpos/qvel), no estimation"
     else:

@@ -15,7 +15,8 @@ from wbc.analysis.legs import leg_reach, leg_rise
 from wbc.exceptions import InvalidInputError
 
 __all__ = ["register", "cmd_walk", "leg_reach", "leg_rise", "velocity_command", "check_command_values",
-           "check_terrain_for_robot", "terrain_crossing", "crossing_criterion", "MIN_STEPS"]
+           "check_terrain_for_robot", "terrain_crossing", "crossing_criterion", "choose_steps", "check_steps",
+           "MIN_STEPS", "DEFAULT_STEPS"]
 
 MIN_STEPS = 2  # one step forward and the closing step
 
@@ -107,14 +108,55 @@ def precheck_walk_args(args) -> None:
     Raises:
         InvalidInputError: see :func:`check_walk_args`.
     """
-    if args.steps < MIN_STEPS:
-        raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
-                                f"{MIN_STEPS}; the last step brings the feet side by side)")
+    check_steps(args.steps)
     check_dt(args.dt)
     check_terrain(args)
     period = _catalog_period(str(args.robot))
-    if period is not None:
+    if period is not None and args.steps is not None:  # (a count chosen to cross the terrain: checked then)
         check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+
+
+def check_steps(steps: int | None) -> None:
+    """Refuse a walk of fewer than :data:`MIN_STEPS` steps (None: not given, chosen later, :func:`choose_steps`).
+
+    Raises:
+        InvalidInputError: naming ``--steps`` and the valid range.
+    """
+    if steps is not None and steps < MIN_STEPS:
+        raise InvalidInputError(f"--steps {steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
+                                f"{MIN_STEPS}; the last step brings the feet side by side)")
+
+
+#: Steps of a walk when ``--steps`` is not given and the terrain has no end to cross (:func:`choose_steps`).
+DEFAULT_STEPS = 8
+
+
+def choose_steps(args, robot, terrain, *, blind: bool = False, prog: str = "wbc walk") -> None:
+    """``--steps`` not given (``args.steps`` None): on a terrain with an end (:attr:`wbc.terrain.Terrain.end_x`:
+    stairs, slope) the fewest steps that cross it, both heels past its end
+    (:func:`wbc.scenarios.terrain_walk.default_steps` with ``args.step_length`` and ``args.step_width``), else
+    :data:`DEFAULT_STEPS`; ``args.steps`` is set. A count the user gave is kept (the walk may then end short: the
+    crossing criterion says so).
+
+    Args:
+        terrain: a :class:`wbc.terrain.Terrain` or None. blind: the walk is planned on flat ground. prog: the
+            command, for the note printed on stdout (the count chosen).
+
+    Raises:
+        GaitError: a step without a foothold on the way (as the plan would).
+    """
+    if args.steps is not None:
+        return
+    chosen = None
+    if terrain is not None and terrain.end_x is not None:
+        from wbc.scenarios.terrain_walk import default_steps
+
+        chosen = default_steps(robot, terrain, blind=blind, step_length=args.step_length,
+                               step_width=getattr(args, "step_width", None))
+        if chosen is not None:
+            print(f"{prog}: note: --steps not given: {chosen} steps, the fewest that cross {terrain.name} (both heels "
+                  f"past x = {terrain.end_x:.3f} m)", flush=True)
+    args.steps = DEFAULT_STEPS if chosen is None else chosen
 
 
 def check_terrain(args) -> None:
@@ -139,13 +181,12 @@ def check_walk_args(args, robot) -> None:
         InvalidInputError: ``--steps`` < 2 or so many that the run would not fit in memory, ``--dt`` out of
             :data:`DT_RANGE`, ``--step-length`` (or ``--vx``) negative or beyond :func:`leg_reach`.
     """
-    if args.steps < MIN_STEPS:
-        raise InvalidInputError(f"--steps {args.steps}: a walk needs at least {MIN_STEPS} steps (valid: steps >= "
-                                f"{MIN_STEPS}; the last step brings the feet side by side)")
+    check_steps(args.steps)
     check_dt(args.dt)
     gait = dict(robot.gait)
     period = float(gait.get("t_ss", 0.8)) + float(gait.get("t_ds", 0.3))
-    check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
+    if args.steps is not None:  # (else chosen, and checked, once the terrain is known: cmd_walk)
+        check_ticks(f"--steps {args.steps} --dt {args.dt:g}", (args.steps + 2) * period, args.dt)
     reach = leg_reach(robot)
     check_command_values(args, robot.name, reach, period)
     check_step_command(args, reach, period)
@@ -246,11 +287,14 @@ def cmd_walk(args) -> int:
     robot = robot_from_args(args)
     velocity = velocity_command(args, robot)
     check_walk_args(args, robot)
-    status(args, f"wbc walk: planning {args.steps} steps ...")
     check_terrain(args)
     terrain = getattr(args, "terrain", None)
     if terrain is not None:
         check_terrain_for_robot(terrain, robot)
+    if args.steps is None:
+        choose_steps(args, robot, terrain)
+        check_walk_args(args, robot)  # (the count's run length)
+    status(args, f"wbc walk: planning {args.steps} steps ...")
     terrain_walk = None
     if terrain is None or terrain.is_flat:
         plan = plan_default_walk(robot, n_steps=args.steps, step_length=args.step_length,
@@ -327,9 +371,10 @@ def register(sub, add_outputs=add_outputs) -> None:
                           description="Plan a straight (or turning) walk from the robot's reference stance and track "
                                       "it with the 500 Hz kinematic QP; prints a summary with acceptance criteria.")
     walk.add_argument("--robot", default="talos", help="catalog name, robot file (.toml) or URDF path (default talos)")
-    walk.add_argument("--steps", type=int, default=8,
+    walk.add_argument("--steps", type=int, default=None,
                       help=f"number of steps, >= {MIN_STEPS}, the last one bringing the feet side by side: the feet "
-                           "advance (steps - 1) x step length (default 8)")
+                           f"advance (steps - 1) x step length (default {DEFAULT_STEPS}; on a --terrain with an end, "
+                           "stairs or slope, the fewest steps whose footholds put both heels past it)")
     walk.add_argument("--step-length", type=real, default=None,
                       help="m, feet advance per step, at most the leg's reach (default: the robot's, talos 0.15)")
     walk.add_argument("--step-width", type=finite(0.0, lo_open=True), default=None,

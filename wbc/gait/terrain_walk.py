@@ -64,14 +64,14 @@ import numpy as np
 
 from wbc.exceptions import GaitError
 from wbc.gait.com_plan import plan_lipm
-from wbc.gait.footsteps import Footstep
+from wbc.gait.footsteps import Footstep, plan_footsteps, pose_to_xy_yaw
 from wbc.gait.schedule import RIGHT_SUPPORT, zmp_segments
 from wbc.gait.swing import sample_feet
 from wbc.gait.walk import WalkPlan, plan_walk
 from wbc.profiles import min_jerk
 from wbc.terrain import Terrain, parse_terrain
 
-__all__ = ["TerrainWalk", "plan_terrain_walk", "foothold_pose", "SUPPORT_TOL"]
+__all__ = ["TerrainWalk", "plan_terrain_walk", "steps_to_cross", "foothold_pose", "SUPPORT_TOL"]
 
 VERTICAL_LEAD = 0.6  #: fraction of a swing, at its start, over which a step up rises
 HORIZONTAL_LEAD = 0.7  #: fraction of a step-down swing, at its start, over which it moves horizontally
@@ -156,6 +156,95 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
     return mid
 
 
+def _footholds(terrain: Terrain, footsteps, left: np.ndarray, right: np.ndarray, length: float, width: float,
+               edge_margin: float, max_shift: float | None, step_length: float) -> tuple[list[Footstep], list[float]]:
+    """Step 1 of the module docstring: the flat plan's ``footsteps`` placed one after the other on ``terrain`` from
+    the sole poses ``left``, ``right`` ((4, 4), world). Returns (the shifted footsteps, their shifts in m).
+
+    Raises:
+        GaitError: a step without a foothold of full sole support within ``max_shift`` (default: half the step
+            length, at least half the sole length).
+    """
+    pos = {"left": (float(left[0, 3]), float(left[1, 3])), "right": (float(right[0, 3]), float(right[1, 3]))}
+    steps, shifts = [], []
+    for i, fs in enumerate(footsteps):
+        step, d = _foothold(terrain, i, fs, footsteps[i - 1] if i else None, pos, length, width, edge_margin,
+                            max_shift, step_length)
+        steps.append(step)
+        shifts.append(d)
+        pos[fs.side] = (step.x, step.y)
+    return steps, shifts
+
+
+def _foothold(terrain: Terrain, i: int, fs: Footstep, prev: Footstep | None, pos: dict, length: float, width: float,
+              edge_margin: float, max_shift: float | None, step_length: float) -> tuple[Footstep, float]:
+    """Footstep ``i`` (``fs``, after the flat footstep ``prev``) placed from the placed soles' xy ``pos`` (by side):
+    (the shifted footstep, its shift in m); see :func:`_footholds`."""
+    if max_shift is None:
+        max_shift = max(0.5 * abs(step_length), 0.5 * length)
+    stance = "right" if fs.side == "left" else "left"
+    if prev is None:
+        x, y = fs.x, fs.y
+    else:  # the nominal offset from the (shifted) stance foot
+        x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
+    d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
+    if d is None:
+        raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
+                        f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
+                        f"{y:.3f}) m; change step_length (now {step_length} m) or edge_margin")
+    return Footstep(fs.side, x + math.cos(fs.yaw) * d, y + math.sin(fs.yaw) * d, fs.yaw), d
+
+
+def steps_to_cross(terrain: Terrain | str, left_sole, right_sole, *, step_length: float,
+                   step_width: float | None = None, sole_length: float = 0.21, sole_width: float = 0.13,
+                   first_side: str = "left", edge_margin: float = 0.02, max_shift: float | None = None,
+                   on_terrain: bool = True, max_steps: int = 200) -> int | None:
+    """The number of steps a straight walk needs to cross ``terrain``: the smallest ``n_steps`` ≥ 2 whose footholds
+    (step 1 of the module docstring, as :func:`plan_terrain_walk` places them; ``on_terrain=False``: the flat plan's
+    footsteps, a walk planned blind) put both heels past :attr:`wbc.terrain.Terrain.end_x`, i.e.
+    ``min(x_left, x_right) − sole_length / 2 ≥ end_x`` for the last two footholds.
+
+    Args:
+        terrain: a :class:`wbc.terrain.Terrain` or its description. left_sole, right_sole: (4, 4) world poses of the
+            sole frames at the start. step_length: m per step (> 0 to cross anything). step_width: m (default the
+            current lateral distance of the soles). sole_length, sole_width: m. first_side: the foot that swings
+            first. edge_margin, max_shift: as :func:`plan_terrain_walk`. max_steps: the largest count tried.
+
+    Returns:
+        The count, or None when the terrain has no end (``end_x`` None), ``step_length`` ≤ 0, or no count up to
+        ``max_steps`` crosses it.
+
+    Raises:
+        GaitError: a step without a foothold (as :func:`plan_terrain_walk`). TerrainError: a bad description.
+    """
+    terrain = parse_terrain(terrain)
+    end = terrain.end_x
+    if end is None or not step_length > 0:
+        return None
+    L, R = np.asarray(left_sole, dtype=float), np.asarray(right_sole, dtype=float)
+    lft, rgt = pose_to_xy_yaw(L), pose_to_xy_yaw(R)
+    if step_width is None:  # as plan_walk: the current lateral distance along the mean heading
+        heading = math.atan2(math.sin(lft[2]) + math.sin(rgt[2]), math.cos(lft[2]) + math.cos(rgt[2]))
+        step_width = -(lft[0] - rgt[0]) * math.sin(heading) + (lft[1] - rgt[1]) * math.cos(heading)
+    # the walking steps 1 .. n - 1 of every count are the same: place them once, one after the other; count n adds
+    # its closing step, which lands beside the last walking foot, so never past it: its heel decides first
+    walking = plan_footsteps(lft, rgt, max_steps + 1, step_length, step_width, 0.0, first_side)[:-1]
+    pos = {"left": (lft[0], lft[1]), "right": (rgt[0], rgt[1])}
+    args = (sole_length, sole_width, edge_margin, max_shift, step_length)
+    for n in range(2, max_steps + 1):
+        i = n - 2  # the last walking step of count n
+        fs = walking[i]
+        step = _foothold(terrain, i, fs, walking[i - 1] if i else None, pos, *args)[0] if on_terrain else fs
+        pos[fs.side] = (step.x, step.y)
+        if end > step.x - 0.5 * sole_length:
+            continue
+        close = plan_footsteps(lft, rgt, n, step_length, step_width, 0.0, first_side)[-1]
+        last = _foothold(terrain, n - 1, close, fs, pos, *args)[0] if on_terrain else close
+        if end <= min(step.x, last.x) - 0.5 * sole_length:
+            return n
+    return None
+
+
 def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edge_margin: float = 0.02,
                       clearance: float = 0.05, max_apex: float = 0.35, max_shift: float | None = None,
                       approach: float | None = None, max_sole_speed: float | None = None, **walk) -> TerrainWalk:
@@ -200,31 +289,11 @@ def plan_terrain_walk(terrain: Terrain | str, left_sole, right_sole, com, *, edg
     if walk.get("turn", 0.0) or walk.get("step_lateral", 0.0):
         raise GaitError("turn and step_lateral must be 0 on terrain (straight walks only)")
     length, width = plan.sole_length, plan.sole_width
-    step_length = float(walk.get("step_length", 0.15))
-    if max_shift is None:
-        max_shift = max(0.5 * abs(step_length), 0.5 * length)
     approach = 0.5 * length if approach is None else float(approach)
 
     # 1. footholds, one after the other
-    feet = {"left": plan.left_sole[0], "right": plan.right_sole[0]}
-    pos = {s: (float(feet[s][0, 3]), float(feet[s][1, 3])) for s in feet}
-    steps, shifts = [], []
-    for i, fs in enumerate(plan.footsteps):
-        stance = "right" if fs.side == "left" else "left"
-        if i == 0:
-            x, y = fs.x, fs.y
-        else:  # the nominal offset from the (shifted) stance foot
-            prev = plan.footsteps[i - 1]
-            x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
-        d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
-        if d is None:
-            raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
-                            f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
-                            f"{y:.3f}) m; change step_length (now {step_length} m) or edge_margin")
-        x, y = x + math.cos(fs.yaw) * d, y + math.sin(fs.yaw) * d
-        steps.append(Footstep(fs.side, x, y, fs.yaw))
-        shifts.append(d)
-        pos[fs.side] = (x, y)
+    steps, shifts = _footholds(terrain, plan.footsteps, plan.left_sole[0], plan.right_sole[0], length, width,
+                               edge_margin, max_shift, float(walk.get("step_length", 0.15)))
     com = np.asarray(com, dtype=float)
     vel = np.zeros(3) if walk.get("com_velocity") is None else np.asarray(walk["com_velocity"], dtype=float)
     plan = plan.replan(0, com, vel, steps, check_start=walk.get("check_start", True))

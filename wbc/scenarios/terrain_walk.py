@@ -23,12 +23,12 @@ import math
 import numpy as np
 
 from wbc.configuration import Configuration
-from wbc.gait.terrain_walk import TerrainWalk, plan_terrain_walk
+from wbc.gait.terrain_walk import TerrainWalk, plan_terrain_walk, steps_to_cross
 from wbc.robot import Robot
 from wbc.scenarios.framework import Criterion, evaluate
 from wbc.terrain import Terrain, parse_terrain
 
-__all__ = ["plan_default_terrain_walk", "stair_defaults", "STAIR_CONTROLLER_KEYS", "terrain_summary",
+__all__ = ["plan_default_terrain_walk", "default_steps", "stair_defaults", "STAIR_CONTROLLER_KEYS", "terrain_summary",
            "TERRAIN_CRITERIA", "terrain_passes"]
 
 #: Acceptance on terrain: thresholds on what the robot did.
@@ -85,17 +85,53 @@ def plan_default_terrain_walk(robot: Robot, terrain: Terrain | str, config: Conf
     """
     terrain = parse_terrain(terrain)
     config = config or Configuration(robot)
+    return plan_terrain_walk(terrain, *_soles(robot, config), config.com.copy(), dt=dt, sole_length=robot.sole_length,
+                             sole_width=robot.sole_width, **_walk_keywords(robot, terrain, overrides))
+
+
+def _walk_keywords(robot: Robot, terrain: Terrain, overrides: dict) -> dict:
+    """The :func:`plan_terrain_walk` keywords of :func:`plan_default_terrain_walk`: the robot's gait, the stair
+    defaults, then the non-None ``overrides``."""
     kwargs = dict(robot.gait)
     if terrain.treads:
         kwargs.setdefault("step_length", 0.15)
     kwargs.update({k: v for k, v in stair_defaults(robot, terrain).items() if k not in STAIR_CONTROLLER_KEYS})
     kwargs.update({k: v for k, v in overrides.items() if v is not None})
-    return plan_terrain_walk(
-        terrain,
-        config.data.oMf[robot.frame_id(robot.left_sole)].homogeneous,
-        config.data.oMf[robot.frame_id(robot.right_sole)].homogeneous,
-        config.com.copy(), dt=dt, sole_length=robot.sole_length, sole_width=robot.sole_width, **kwargs,
-    )
+    return kwargs
+
+
+def _soles(robot: Robot, config: Configuration) -> tuple[np.ndarray, np.ndarray]:
+    """(4, 4) world poses of the left and right sole frames at ``config``."""
+    return (config.data.oMf[robot.frame_id(robot.left_sole)].homogeneous,
+            config.data.oMf[robot.frame_id(robot.right_sole)].homogeneous)
+
+
+def default_steps(robot: Robot, terrain: Terrain | str, config: Configuration | None = None, *,
+                  blind: bool = False, **overrides) -> int | None:
+    """The number of steps that crosses ``terrain`` (the default of ``wbc walk`` and ``wbc sim walk`` on a terrain
+    with an end, :attr:`wbc.terrain.Terrain.end_x`): the smallest count whose footholds put both heels past the
+    end (:func:`wbc.gait.terrain_walk.steps_to_cross`), the walk planned as :func:`plan_default_terrain_walk` plans
+    it from ``config``'s stance (default ``robot.q_ref``).
+
+    Args:
+        robot: the robot. terrain: a :class:`wbc.terrain.Terrain` or its description. blind: the walk is planned
+            on flat ground (its footsteps are not moved onto the treads). **overrides: ``step_length``,
+            ``step_width`` (m), ``first_side``; None values are ignored.
+
+    Returns:
+        The count (>= 2), or None: a terrain without an end, or no count up to 200 crosses it.
+
+    Raises:
+        GaitError: a step without a foothold on the way (as the plan would).
+    """
+    terrain = parse_terrain(terrain)
+    if terrain.end_x is None:
+        return None
+    kwargs = _walk_keywords(robot, terrain, overrides)
+    keys = ("step_length", "step_width", "first_side", "edge_margin", "max_shift")
+    return steps_to_cross(terrain, *_soles(robot, config or Configuration(robot)), sole_length=robot.sole_length,
+                          sole_width=robot.sole_width, on_terrain=not blind,
+                          **{k: kwargs[k] for k in keys if k in kwargs})
 
 
 def terrain_summary(walk: TerrainWalk, left: np.ndarray, right: np.ndarray, length: float, width: float) -> dict:

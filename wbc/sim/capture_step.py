@@ -11,6 +11,15 @@ point: a step toward humanoid push recovery", Humanoids 2006) and a two-step wal
 second step closes the feet. The stepping foot is the one on the side the DCM moved to (left when it moved left
 or straight forward/back).
 
+With ``contact_events`` the soles follow the measured contact events while the robot stands too (the walk's
+:class:`wbc.sim.walk_contacts.WalkContactEvents` on a :class:`~wbc.dynamics.contact_switching.ContactSwitcher` of
+the standing phase): a sole the push unloads and lifts above the events' ``air_height`` (``loss``, cause
+``unloaded``) while the other sole is in contact is released (no force on it in the QP), held flat at its
+horizontal position and heading and lowered into the floor at 0.1 m/s, at most 2 cm (the flat walk's late
+touch-down), until the events see it down (flat and loaded), then ramped in. A QP that keeps such a sole a contact
+plans force the plant cannot give and spins the leg (Romeo: RHipYaw 1.29× its limit, record 46). The capture step
+is not started while a sole is released or ramping in.
+
 When the recovery walk cannot be planned at the trigger (:class:`~wbc.exceptions.GaitError`, e.g. a sole already
 rolled onto its edge), the robot keeps balancing on its soles, no step is tried again, and the summary's
 ``step_refused`` gives the planner's message.
@@ -21,7 +30,9 @@ push's angular momentum about the CoM measured just after it (N·m·s, about e_z
 point's height above the CoM (m) and the capture-point bounds on the push (N, linear and with the push's moment:
 :func:`wbc.sim.scenarios.capture_point_bound`) — a push above the second cannot be absorbed by the CoP alone;
 per sole, the longest time it was a contact of the controller while the plant did not load it
-(:func:`wbc.sim.scenarios.unloaded_contacts`: the robot pivoting on the other sole's edge).
+(:func:`wbc.sim.scenarios.unloaded_contacts`: the robot pivoting on the other sole's edge); with
+``contact_events``, the events and releases (``contact_events``, ``contact_releases``; those of the standing phase
+as ``standing_contact_releases`` when the recovery walk's replace them).
 """
 
 from __future__ import annotations
@@ -37,7 +48,8 @@ from wbc.scenarios.framework import Criterion
 from wbc.sim.scenarios import NO_FALL, capture_point_bound, timed_push, unloaded_contacts
 from wbc.geometry import polygon_margin
 from wbc.sim.walk import WalkScenario
-from wbc.sim.walk_contacts import contact_events_option
+from wbc.dynamics.contact_switching import ContactSwitcher
+from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
 
 __all__ = ["CaptureStepScenario"]
 
@@ -51,7 +63,7 @@ def _hull_of_soles(data, fids, length, width):
     return convex_hull(np.vstack(pts))
 
 
-class CaptureStepScenario:
+class CaptureStepScenario(WalkContactEvents):
     """Standing push, recovered by a capture step (module docstring). Needs the ID controller.
 
     Args:
@@ -61,8 +73,10 @@ class CaptureStepScenario:
         trigger_margin: the soles are shrunk by this (m) for the trigger test.
         settle: s after the push when no step is triggered; the run lasts ``t_push + push_duration + settle`` at
             least, and until the recovery walk has finished.
-        contact_events: the recovery walk's ``contact_events`` (:class:`~wbc.sim.walk.WalkScenario`; default
-            False), fed with the ankle F/T wrenches the closed loop sets as ``measured_wrench``.
+        contact_events: the contacts follow the measured contact events, standing (module docstring) and in the
+            recovery walk (its ``contact_events``, :class:`~wbc.sim.walk.WalkScenario`): False (default), True
+            (default thresholds) or a :class:`~wbc.estimation.contact_events.ContactEventThresholds`; fed with the
+            ankle F/T wrenches the closed loop sets as ``measured_wrench``.
 
     Raises:
         InvalidInputError: negative or non-finite numbers.
@@ -89,6 +103,10 @@ class CaptureStepScenario:
         self.contact_events = contact_events_option(contact_events)
         if self.contact_events is not None:  # the closed loop then sets it from the F/T sensors; the walk reads it
             self.measured_wrench = None
+        # standing with contact events: the contacts follow them as in the walk (wbc.sim.walk_contacts), the
+        # released sole held flat and set down as the flat walk's late touch-down
+        self.contact_thresholds, self.blind = self.contact_events, False
+        self.descent_speed, self.max_descent = 0.1, 0.02
 
     def setup(self, controller, sim, q, v):
         robot = sim.robot
@@ -108,6 +126,13 @@ class CaptureStepScenario:
         self._sim = sim
         self.walk, self.t_trigger = None, None
         self.step_refused: str | None = None  # why no capture step could be planned (GaitError), once triggered
+        self.dt = sim.timestep
+        self._setup_contact_events(robot, self.dt)
+        if self.contact_monitor is not None:  # standing: the soles' contacts follow the events (module docstring)
+            self.switcher = ContactSwitcher(controller)
+            self._active, self._cut = {}, {"left": None, "right": None}
+            oMf = {s: self._data.oMf[f] for s, f in zip(("left", "right"), self._fids)}
+            self._sole_views = {s: (oMf[s], oMf[s].rotation, oMf[s].translation) for s in ("left", "right")}
 
     def com_reference(self, t):
         if self.walk is None:
@@ -119,7 +144,9 @@ class CaptureStepScenario:
             pin.centerOfMass(self._model, self._data, q, v)
             c, cd = self._data.com[0], self._data.vcom[0]
             xi = c[:2] + cd[:2] / self.omega
-            if polygon_margin(xi, self._hull) < 0.0:
+            if self.contact_monitor is not None:
+                self._stand_on_events(t, controller, q, v)
+            if polygon_margin(xi, self._hull) < 0.0 and self._both_soles_down():
                 e = xi - self.com0[:2]
                 side = "right" if e[1] < 0 else "left"
                 # reach and dead band of the capture step: measured (Talos, 450 N from behind) to fall with the walk
@@ -142,6 +169,22 @@ class CaptureStepScenario:
         active = self.t_push <= t < self.t_push + self.push_duration - 1e-9
         f, self._on = timed_push(sim, self._body, self.force * self.push_vec if active else None, active, self._on)
         return f
+
+    def _stand_on_events(self, t, controller, q, v) -> None:
+        """Standing, one tick of the contact events (``self._data`` holds the forward kinematics of (q, v)): the
+        switcher's ramps, then :meth:`WalkContactEvents._follow_contacts` (an unloaded sole in the air released,
+        held flat and lowered until it is measured down, then ramped in)."""
+        for f in self._fids:
+            pin.updateFramePlacement(self._model, self._data, f)
+        wrench = self.measured_wrench
+        self.switcher.update(t, q, v, None if wrench is None else np.asarray(wrench)[:, 2], self._data)
+        self._follow_contacts(float(t), controller, float(t))
+
+    def _both_soles_down(self) -> bool:
+        """No sole released or ramping in by the standing events (always True without them): the capture step
+        starts from two soles in contact."""
+        sw = getattr(self, "switcher", None)
+        return sw is None or (sw.phase("left") == "stance" and sw.phase("right") == "stance")
 
     def criteria(self) -> list[Criterion]:
         """Pass: no fall, the run completed, no solver failure (a step is allowed, not required)."""
@@ -166,6 +209,9 @@ class CaptureStepScenario:
                     "push_height_above_com_m": self._bound["push_height_above_com_m"],
                     "unloaded_contact_s": unloaded_contacts(run.contact_active, run.sim_wrench[:, :, 2], run.dt,
                                                             self._weight, run.fall_time if run.fell else None)})
+        if self.contact_monitor is not None:  # standing's events (the recovery walk's replace them, if any)
+            standing = self.contact_events_summary()
+            out.update(standing if self.walk is None else {"standing_contact_releases": standing["contact_releases"]})
         if self.walk is not None:
             out.update({"stepping_side": self.walk.first_side,
                         "first_step_shift_m": list(getattr(self.walk, "capture_landing", (0.0, 0.0))),
