@@ -417,10 +417,10 @@ def test_a_cycling_daqp_workspace_hands_a_re_solve_over_within_the_stage_iterati
     iterations = []  # DAQP iterations of each call of the flat QP's backends during the tick
     timed = DaqpBackend._timed
 
-    def recorded(self, call):
-        out = timed(self, call)
+    def recorded(self, call, *args):
+        out = timed(self, call, *args)
         if self is ctrl.backend or self is ctrl._band_backend:
-            iterations.append(int(out[3]["iterations"]))
+            iterations.append(int(out[2]["iterations"]))
         return out
 
     monkeypatch.setattr(DaqpBackend, "_timed", recorded)
@@ -471,9 +471,9 @@ def test_a_workspace_that_cycles_in_the_first_solve_hands_over_to_the_one_shot_c
     iterations = []
     timed = DaqpBackend._timed
 
-    def recorded(self, call):
-        out = timed(self, call)
-        iterations.append(int(out[3]["iterations"]))
+    def recorded(self, call, *args):
+        out = timed(self, call, *args)
+        iterations.append(int(out[2]["iterations"]))
         return out
 
     monkeypatch.setattr(DaqpBackend, "_timed", recorded)

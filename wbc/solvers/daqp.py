@@ -120,30 +120,32 @@ class DaqpBackend(QPBackend, role="daqp"):
         return limit
 
     def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
-        """One ``daqp.solve`` on the formed constraints (settings, ``extra`` over them, :meth:`call_limit`), timed, its
-        stop noted unless ``note`` is False: (x, or None when DAQP found none; DAQP's info dict)."""
+        """One ``daqp.solve`` on the formed constraints (settings, ``extra`` over them, :meth:`call_limit`),
+        :meth:`_timed`: (x, or None when DAQP found none; DAQP's info dict)."""
         limit = self.call_limit()
-        x, _, exitflag, info = self._timed(lambda: self._daqp.solve(
-            H, g, self._G, self._upper, self._lower, self._sense, **{**self.settings, "iter_limit": limit, **extra}))
-        if note:
-            self._note_exit(exitflag, limit)
-        return (x if exitflag >= 1 else None), info
+        x, _, info = self._timed(lambda: self._daqp.solve(
+            H, g, self._G, self._upper, self._lower, self._sense, **{**self.settings, "iter_limit": limit, **extra}),
+            limit, note)
+        return x, info
 
-    def _timed(self, call) -> tuple:
-        """``call()`` (a DAQP solve), its proximal iterations counted; under a deadline its CPU time per iteration
-        updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at it)."""
+    def _timed(self, call, limit: int, note: bool = True) -> tuple:
+        """``call()`` (a DAQP solve of iteration limit ``limit``), its iterations (``last_iterations``) and proximal
+        iterations counted, its stop noted unless ``note`` is False (:meth:`_note_exit`); under a deadline its CPU time
+        per iteration updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at
+        it). (x, or None when DAQP found none; DAQP's exit flag; its info dict)."""
         timed = self.deadline != math.inf
         t0 = thread_time() if timed else 0.0
-        out = call()
-        self.proximal_iterations += max(0, int(out[3].get("nodes", 1)) - 1)
-        if not timed:
-            return out
-        iterations = int(out[3]["iterations"])
-        if iterations >= MEASURED_CALL_ITERATIONS:
+        x, _, exitflag, info = call()
+        self.proximal_iterations += max(0, int(info.get("nodes", 1)) - 1)
+        iterations = int(info["iterations"])
+        if timed and iterations >= MEASURED_CALL_ITERATIONS:
             cost = (thread_time() - t0) / iterations
             self.measured_iteration_cost = (cost if cost > self.measured_iteration_cost
                                             else MEASURED_COST_DECAY * self.measured_iteration_cost)
-        return out
+        self.last_iterations += iterations
+        if note:
+            self._note_exit(exitflag, limit)
+        return (x if exitflag >= 1 else None), exitflag, info
 
     def _note_exit(self, exitflag: int, limit: int) -> None:
         """A call stopped by a lowered limit: ``iterations_capped`` (``call_iterations``), else ``budget_capped``."""
@@ -193,12 +195,10 @@ class DaqpBackend(QPBackend, role="daqp"):
             if limit != self._model_limit:
                 self._model.settings = {"iter_limit": limit}
                 self._model_limit = limit
-            x, _, exitflag, info = self._timed(self._model.solve)
-            self.last_iterations += int(info["iterations"])
-            if exitflag >= 1:
+            x, exitflag, info = self._timed(self._model.solve, limit)
+            if x is not None:
                 self.last_multipliers = info["lam"]
                 return x
-            self._note_exit(exitflag, limit)
             if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit); next solve cold
                 self._model = None
                 return None
@@ -218,15 +218,13 @@ class DaqpBackend(QPBackend, role="daqp"):
         model.settings = {**self.settings, "iter_limit": limit}
         self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
-            x, _, exitflag, info = self._timed(model.solve)
-            self.last_iterations += int(info["iterations"])
-            if exitflag >= 1:
+            x, _, info = self._timed(model.solve, limit)
+            if x is not None:
                 self._model = model
                 self._model_limit = limit
                 self.last_multipliers = info["lam"]
                 self._cold_ran = True
                 return x
-            self._note_exit(exitflag, limit)
         if not self.cold_retry or self.budget_capped:
             return None
         self._cold_ran = True
@@ -241,7 +239,6 @@ class DaqpBackend(QPBackend, role="daqp"):
     def _solve_oneshot(self, H, g):
         """:meth:`_oneshot`, counted, its multipliers kept: x or None."""
         x, info = self._oneshot(H, g)
-        self.last_iterations += int(info["iterations"])
         self.last_multipliers = None if x is None else info["lam"]
         return x
 
@@ -264,7 +261,6 @@ class DaqpBackend(QPBackend, role="daqp"):
             # at the tolerance, resp. DUAL_RETRY_PRIMAL_FACTOR × it (the answer is held to ``tolerance`` all the same)
             primal = self.tolerance if low else DUAL_RETRY_PRIMAL_FACTOR * self.tolerance
             x2, info = self._oneshot(H, g, primal_tol=primal)
-            self.last_iterations += int(info["iterations"])
             if x2 is not None:
                 if not low:
                     self.last_multipliers = None
@@ -276,7 +272,6 @@ class DaqpBackend(QPBackend, role="daqp"):
             # the same minimiser with the cost divided by max(1, |g|∞, |H|max): DAQP's absolute dual tolerances
             # reported feasible inverse-dynamics QPs with a large |g| and an ill-conditioned Hessian infeasible
             x3, info = self._oneshot(H * scale, g * scale, note=False, **self.scaled_settings)
-            self.last_iterations += int(info["iterations"])
             if x3 is not None:
                 self.last_multipliers = None
                 return x3
@@ -293,7 +288,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         self._daqp_form(A, b, C, l, u, lb, ub)
         scale = _cost_scale(H, g)
         x, info = self._oneshot(H * scale, g * scale, **self.scaled_settings)
-        self.last_iterations = int(info["iterations"])
+        self.last_iterations = int(info["iterations"])  # (this call's alone)
         xc = None if x is None else self.accepted(x, A, b, C, l, u, lb, ub, self.tolerance)
         if xc is None:
             return None
@@ -305,7 +300,6 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _solve_dual(self, H, g):
         x, info = self._oneshot(H, g, **({} if self._dual is None else {"dual_start": self._dual}))
-        self.last_iterations += int(info["iterations"])
         if x is None:
             self._cold_ran = self._dual is None  # a cold call failed (_solve_cold does not repeat it)
             self._dual = None

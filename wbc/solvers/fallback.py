@@ -132,9 +132,8 @@ class FallbackChain:
             raise SolverError("the relaxed hard set is empty (DAQP on the projection of the origin onto it, checked "
                               "after the full QP failed): no relaxed solve")
         if not isinstance(self.backend, DaqpBackend):
-            return self._solve_checked(*qp)
+            return self._solve_checked(qp)
         # a DAQP backend: docs/inverse-dynamics-controller.md, "The relaxed QP"
-        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         backend.deadline = self._deadline(self.RELAXED_END)  # math.inf without a clock guard
         try:
@@ -148,7 +147,7 @@ class FallbackChain:
                 # the relaxed hard set, unless this tick checked it to a verdict or ended undecided before its limit
                 feasible = self.relaxed_set_feasible
                 if feasible is None and not self._relaxed_check_final:
-                    feasible = self._set_check(A, b, C, l, u, lb, ub, "RELAXED")
+                    feasible = self._set_check(*qp[2:], "RELAXED")
                 if feasible is False:
                     raise SolverError(f"{first}; the relaxed hard set is empty (DAQP on the projection of the origin "
                                       f"onto it): the backend's retries skipped")
@@ -197,8 +196,7 @@ class FallbackChain:
 
     def _factors(self, stage: str) -> tuple[float, float]:
         """(_WORK, _END) factors of ``stage``: ``"FAILURE"``, ``"QUADPROG"`` or ``"RELAXED"``."""
-        return {"FAILURE": (self.FAILURE_WORK, self.FAILURE_END), "QUADPROG": (self.QUADPROG_WORK, self.QUADPROG_END),
-                "RELAXED": (self.RELAXED_WORK, self.RELAXED_END)}[stage]
+        return getattr(self, f"{stage}_WORK"), getattr(self, f"{stage}_END")
 
     def _left(self, stage: str) -> float:
         """DAQP iterations left for ``stage`` (``math.inf``: no limit): :attr:`tick_work` below its _WORK factor of
@@ -345,7 +343,7 @@ class FallbackChain:
             self.resume_scaled = False
             self.budget_cut = True
             first = SolverError("the resumed scaled call found no solution")
-            self._check_hard_sets(first, qp, relax)
+            self._check_hard_sets(first, qp, relax, self._set_check(*qp[2:], "FAILURE"))
             raise SolverError(f"{first}; quadprog: {skipped or 'no solution either'}")
         try:
             return self._stages(qp, relax)
@@ -356,20 +354,19 @@ class FallbackChain:
     def _stages(self, qp: QPData, relax: Callable | None) -> QPSolution:
         """The ladder's steps on the full QP ``qp`` (``relax``: as :meth:`solve`). Raises SolverError: the backend's,
         extended with why the ladder ended."""
-        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if not isinstance(backend, DaqpBackend):
-            return self._solve_checked(H, g, A, b, C, l, u, lb, ub)
+            return self._solve_checked(qp)
         known = None  # the full hard set's check before DAQP's attempt, when made
         checked = self.last_set_empty
         if checked:
             # the last failed full QP's hard set was proved empty: this one is checked first (a failing run of ticks
             # skips DAQP's attempt, which could only fail)
             self.last_set_empty = False
-            known = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
+            known = self._set_check(*qp[2:], "FAILURE")
             if known is False:
                 self._check_hard_sets(SolverError("DAQP not asked: the last failed full QP's hard set was empty"), qp,
-                                      relax, known, checked=True)
+                                      relax, known)
         # the first attempt and the cost-scaled call get the budget's iteration count
         cap = None if self.daqp_attempt_iterations >= ITERATION_LIMIT else self.daqp_attempt_iterations
         sol, first = self._call(qp, "attempt", cap, self._deadline(self.ATTEMPT_END))
@@ -378,7 +375,7 @@ class FallbackChain:
         attempted = backend.last_iterations  # the attempt's DAQP iterations
         if backend.budget_capped:
             self.budget_cut = True
-        feasible = self._check_hard_sets(first, qp, relax, known, checked=checked)
+        feasible = self._check_hard_sets(first, qp, relax, known if checked else self._set_check(*qp[2:], "FAILURE"))
         if cap is not None:
             # a set not proved empty (DAQP cycles or misjudges ill-scaled costs): the cost-scaled call, on a set with
             # a point with what the attempt left of SCALED_FEASIBLE_FACTOR × cap, within the work left
@@ -405,13 +402,10 @@ class FallbackChain:
             self.budget_cut = True
         raise exc
 
-    def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None = None,
-                         *, checked: bool = False) -> bool:
-        """The hard-set checks of a failed full QP: the full set (unless ``checked``: its verdict ``full``), then the
+    def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None) -> bool:
+        """The hard-set checks of a failed full QP after the full set's (its verdict ``full``, :meth:`_set_check`): the
         relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a point."""
         _, _, A, b, C, l, u, lb, ub = qp
-        if not checked:
-            full = self._set_check(A, b, C, l, u, lb, ub, "FAILURE")
         if full is True:
             self.hard_set_point = True
             return True
@@ -429,7 +423,7 @@ class FallbackChain:
                               f"quadprog and the backend's retries skipped")
         return False
 
-    def _solve_checked(self, H, g, A, b, C, l, u, lb, ub) -> QPSolution:
+    def _solve_checked(self, qp: QPData) -> QPSolution:
         """A backend other than DAQP on the QP; when a :class:`~wbc.solvers.base.QPBackend` fails (unless
         :attr:`second_opinion_enabled` is False), a second opinion of two active-set solvers: quadprog
         (:func:`~wbc.solvers.independent.solve_pinned_reduced`), then one DAQP call. A proximal method's infeasibility
@@ -438,7 +432,7 @@ class FallbackChain:
         exactly. Raises the backend's SolverError when neither answers."""
         backend = self.backend
         try:
-            return QPSolution(backend.solve(H, g, A, b, C, l, u, lb, ub, **self._confirm_kw), backend.name, "attempt")
+            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, "attempt")
         except SolverError as exc:
             if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
                 raise
@@ -446,10 +440,10 @@ class FallbackChain:
         if self._daqp_check is None:
             self._daqp_check = DaqpBackend(tolerance=backend.tolerance, **DAQP_SETTINGS)
             self._daqp_check.cold_retry = False
-        x, solver = solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, backend.tolerance), "quadprog"
+        x, solver = solve_pinned_reduced(*qp, backend.tolerance), "quadprog"
         if x is None:
             try:
-                x, solver = self._daqp_check.solve(H, g, A, b, C, l, u, lb, ub, confirm=False), "daqp"
+                x, solver = self._daqp_check.solve(*qp, confirm=False), "daqp"
             except SolverError:
                 raise first from None
         return QPSolution(x, solver, "second opinion")
@@ -459,10 +453,9 @@ class FallbackChain:
         (:meth:`wbc.solvers.base.QPBackend.polish`), else quadprog's (unless ``answered_by`` is quadprog) while the
         clock or count leaves room. ``accept(x, solver)``: the caller's solution of a candidate that passes its check
         (``solver`` None: the polished one), else None. Returns the first accepted candidate, or None."""
-        H, g, A, b, C, l, u, lb, ub = qp
         backend = self.backend
         if isinstance(backend, QPBackend):
-            xp = backend.polish(x, A, b, C, l, u, lb, ub)
+            xp = backend.polish(x, *qp[2:])
             if xp is not None:
                 cand = accept(xp, None)
                 if cand is not None:
