@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import pinocchio as pin
 
+from conftest import box_sole_mjcf
 from wbc.gait.blind import BLIND_ROLL_RATE, blind_swing_into, clip_band_range, roll_band
 
 DT = 0.002
@@ -98,22 +99,7 @@ def test_clip_band_range_keeps_two_centimetres_inside_the_sole():
 # -- a box sole turned onto one edge in MuJoCo: the band holds MuJoCo's contacts -----------------------------------
 
 L, W = 0.21, 0.13  # sole rectangle (m)
-_FOOT = f"""
-<mujoco>
-  <option timestep="{DT}"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="2 2 0.1"/>
-    <body name="foot" pos="0 0 0.03">
-      <joint name="z" type="slide" axis="0 0 1" damping="50"/>
-      <joint name="x" type="slide" axis="1 0 0" damping="50"/>
-      <joint name="pitch" type="hinge" axis="0 1 0" damping="40"/>
-      <geom name="sole" type="box" size="{L / 2} {W / 2} 0.03" mass="30"/>
-      <site name="sole" pos="0 0 -0.03"/>
-    </body>
-  </worldbody>
-  <actuator><position name="pitch" joint="pitch" kp="800"/></actuator>
-</mujoco>
-"""
+_FOOT = box_sole_mjcf(L, W, DT)
 
 
 def test_a_sole_turning_onto_its_edge_is_cut_to_a_band_holding_mujocos_contacts():
