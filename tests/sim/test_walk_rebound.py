@@ -111,3 +111,24 @@ def test_a_sole_bouncing_off_the_ground_in_its_ramp_in_is_held_for_its_load_agai
     trace0, _, sw0 = _drop(rule=False)
     air0 = [b for t, n, b, ph in trace0 if t > t_hit and n == 0]
     assert max(air0) > 0.5 * sw0.full_force
+
+
+
+def test_a_stance_sole_that_loses_its_load_is_left_to_the_switcher():
+    """Only a sole in its ramp-in is held: a sole fully loaded (stance) that then reads no load (the QP moving the
+    CoP to the other sole) keeps its phase and its unbounded contact."""
+    robot = load_robot("talos")
+    weight = robot.mass * robot.gravity
+    q, v = np.zeros(robot.model.nq), np.zeros(robot.model.nv)
+    ctl = _Controller(robot)
+    sw = ContactSwitcher(ctl, ramp_time=0.04, contact_force=0.03 * weight)
+    walk = _Walk(sw)
+    sw.release("left", 0.0)
+    sw.touch_down("left", 0.1)
+    for k in range(50, 151):
+        t = k * DT
+        f = np.array([0.0 if t >= 0.2 else 0.5 * weight, 0.5 * weight])
+        sw.update(t, q, v, f)
+        walk.measured_normal_force = f
+        walk._await_rebound(t)
+    assert sw.phase("left") == "stance" and walk.rebounds == [] and math.isinf(ctl.contacts["left"].f_max)

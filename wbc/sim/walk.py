@@ -616,8 +616,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
         sw.update(t, q, v, self.measured_normal_force, data)
-        if self.blind:
-            self._await_rebound(tf)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":

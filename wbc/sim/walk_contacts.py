@@ -78,8 +78,8 @@ class WalkContactEvents:
         ``await_load`` (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`): the QP plans at most
         2 ``contact_force`` on it until the plant loads it again, and its ramp-in starts again from there.
         Otherwise the ramp-in runs on the sole in the air: the QP plans hundreds of newtons the plant does not
-        give, and the leg drives the sole sideways (``benchmarks/rough_blind.py`` seed 1: 35.7 mm, record 47).
-        Nothing happens without the measured forces."""
+        give, and the leg drives the sole sideways (benchmarks/records/47-*.md). Nothing happens without the
+        measured forces."""
         f, sw = self.measured_normal_force, self.switcher
         if f is None or sw.contact_force is None:
             return
@@ -92,8 +92,11 @@ class WalkContactEvents:
                 self.rebounds.append((float(t), side))
 
     def _follow_contacts(self, t: float, controller, tp: float) -> None:
-        """One tick of the events; release, cut or set down soles (module docstring); nothing when off. ``tp``:
-        the plan clock (s; a swinging sole is planned down once its planned touch-down has passed)."""
+        """One tick of the events; release, cut or set down soles (module docstring); nothing when off (a blind
+        walk's :meth:`_await_rebound` runs first, on or off). ``tp``: the plan clock (s; a swinging sole is planned
+        down once its planned touch-down has passed)."""
+        if self.blind:
+            self._await_rebound(t)
         if self.contact_monitor is None:
             return
         landing_due = {s: tp >= a[2] * self.dt - 1e-9 for s, a in self._active.items()}
