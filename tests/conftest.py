@@ -330,3 +330,25 @@ def cli(capsys):
         return code, err.strip(), out
 
     return run
+
+
+def box_sole_mjcf(length: float, width: float, dt: float) -> str:
+    """MJCF of a 30 kg box sole (``length`` × ``width`` m, 6 cm thick) on a floor, free to slide in z and x and to
+    pitch (damped), its pitch driven by a position actuator (kp 800 N·m/rad), a site ``sole`` at its bottom face's
+    centre; MuJoCo timestep ``dt`` (s). The scripted foot of the contact-event and partial-foothold tests."""
+    return f"""
+<mujoco>
+  <option timestep="{dt}"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="foot" pos="0 0 0.03">
+      <joint name="z" type="slide" axis="0 0 1" damping="50"/>
+      <joint name="x" type="slide" axis="1 0 0" damping="50"/>
+      <joint name="pitch" type="hinge" axis="0 1 0" damping="40"/>
+      <geom name="sole" type="box" size="{length / 2} {width / 2} 0.03" mass="30"/>
+      <site name="sole" pos="0 0 -0.03"/>
+    </body>
+  </worldbody>
+  <actuator><position name="pitch" joint="pitch" kp="800"/></actuator>
+</mujoco>
+"""

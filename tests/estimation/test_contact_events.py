@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from conftest import box_sole_mjcf
 from wbc.estimation.contact_events import ContactEventThresholds, SoleContactEvents
 from wbc.exceptions import InvalidInputError
 
@@ -113,22 +114,7 @@ def test_bad_sole_raises():
 
 # -- MuJoCo: a box sole on a floor, the detector fed with MuJoCo's contact forces -------------------------------
 
-_FOOT = f"""
-<mujoco>
-  <option timestep="{DT}"/>
-  <worldbody>
-    <geom name="floor" type="plane" size="2 2 0.1"/>
-    <body name="foot" pos="0 0 0.03">
-      <joint name="z" type="slide" axis="0 0 1" damping="50"/>
-      <joint name="x" type="slide" axis="1 0 0" damping="50"/>
-      <joint name="pitch" type="hinge" axis="0 1 0" damping="40"/>
-      <geom name="sole" type="box" size="{L / 2} {W / 2} 0.03" mass="30"/>
-      <site name="sole" pos="0 0 -0.03"/>
-    </body>
-  </worldbody>
-  <actuator><position name="pitch" joint="pitch" kp="800"/></actuator>
-</mujoco>
-"""
+_FOOT = box_sole_mjcf(L, W, DT)
 
 
 def _ground_wrench(model, data, site):

@@ -7,8 +7,8 @@ it comes. Two control laws adapt the plan to it:
   clearance a lift held over the swing (an early contact lands where planned, with no horizontal speed).
 - :func:`roll_band`, :func:`clip_band_range`: partial footholds (Wiedebach, Grabowski, Pratt, "Walking on partial
   footholds including line contacts with the humanoid robot Atlas", Humanoids 2016, Sec. III-B): a loaded stance
-  sole rotating about an inner line has its contact rectangle cut to a band about that line through its measured
-  CoP.
+  sole rotating about a line of its sole (an inner line or an edge) has its contact rectangle cut to a band about
+  that line through its measured CoP.
 
 Frames and units: world (swing), sole frame (bands); m, s, rad.
 """
@@ -21,7 +21,7 @@ import pinocchio as pin
 from wbc.profiles import min_jerk
 
 __all__ = ["BLIND_XY_END", "BLIND_LIFT", "BLIND_SET_DOWN", "BLIND_ROLL_RATE", "BLIND_CUT_BAND", "BLIND_CUT_LOAD",
-           "BLIND_CUT_MIN", "BLIND_PIVOT_INSET", "BLIND_CUT_HOLD", "blind_swing_into", "clip_band_range", "roll_band"]
+           "BLIND_CUT_MIN", "BLIND_PIVOT_SLACK", "BLIND_CUT_HOLD", "blind_swing_into", "clip_band_range", "roll_band"]
 
 #: Blind walk: fraction of a swing by which the swing sole has reached its foothold's xy and heading (the rest of the
 #: swing descends vertically; :func:`blind_swing_into`).
@@ -40,8 +40,11 @@ BLIND_CUT_BAND = 0.01
 BLIND_CUT_LOAD = 0.1
 #: Blind walk: smallest length and width (m) a cut leaves of a contact rectangle.
 BLIND_CUT_MIN = 0.02
-#: Blind walk: a rolling sole's pivot (measured CoP) must be this far (m) inside the sole's edges for a cut.
-BLIND_PIVOT_INSET = 0.02
+#: Blind walk: a rolling sole's pivot (measured CoP) must lie on the sole, at most this far (m) beyond its edges (the
+#: F/T CoP of a sole turning about its edge reads a few millimetres past it), for a cut. A pivot on an edge is cut
+#: too: a sole landed on its edge and turning flat about it at the QP's CoP rolled its ankle past the joint's speed
+#: limit (benchmarks/records/47-*.md).
+BLIND_PIVOT_SLACK = 0.01
 #: Blind walk: a cut lasts this long (s) after the sole's rolling last exceeded :data:`BLIND_ROLL_RATE`.
 BLIND_CUT_HOLD = 0.1
 
@@ -98,9 +101,9 @@ def clip_band_range(lo: float, hi: float, a: float, b: float) -> tuple[float, fl
 def roll_band(band: list, until: list, t: float, omega, cop, half_size) -> None:
     """Cut a loaded stance sole's contact band about its line of rotation (module docstring), in place.
 
-    |ω_y| > :data:`BLIND_ROLL_RATE` (pitching) with the measured CoP's x at least :data:`BLIND_PIVOT_INSET` inside the
-    sole: band[0:2] = [p_x − h, p_x + h] and until[0] = t + :data:`BLIND_CUT_HOLD`; |ω_x| > rate (rolling) likewise
-    for y (band[2:4], until[1]); h = :data:`BLIND_CUT_BAND`.
+    |ω_y| > :data:`BLIND_ROLL_RATE` (pitching) with the measured CoP's x on the sole (up to :data:`BLIND_PIVOT_SLACK`
+    beyond its edges): band[0:2] = [p_x − h, p_x + h] and until[0] = t + :data:`BLIND_CUT_HOLD`; |ω_x| > rate
+    (rolling) likewise for y (band[2:4], until[1]); h = :data:`BLIND_CUT_BAND`.
 
     Args:
         band: [lo_x, hi_x, lo_y, hi_y] (m, sole frame; ±inf: not cut). until: [x, y] expiry times of the cuts (s).
@@ -109,11 +112,11 @@ def roll_band(band: list, until: list, t: float, omega, cop, half_size) -> None:
     """
     A, B = half_size
     px, py = cop
-    e = BLIND_PIVOT_INSET
+    e = -BLIND_PIVOT_SLACK
     h = BLIND_CUT_BAND
-    if abs(omega[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about an inner line
+    if abs(omega[1]) > BLIND_ROLL_RATE and -A + e < px < A - e:  # pitching about a line of the sole
         band[0], band[1] = px - h, px + h
         until[0] = t + BLIND_CUT_HOLD
-    if abs(omega[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about an inner line
+    if abs(omega[0]) > BLIND_ROLL_RATE and -B + e < py < B - e:  # rolling about a line of the sole
         band[2], band[3] = py - h, py + h
         until[1] = t + BLIND_CUT_HOLD

@@ -18,6 +18,9 @@ the switcher holds as a contact (``stance`` or ``loading``):
   most ``max_descent``) until the events see it down again (``touchdown``: flat and loaded); it is then switched
   on with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
 
+A blind walk also holds a landing sole that bounced off the ground in its ramp-in until it is loaded again
+(:meth:`WalkContactEvents._await_rebound`), with or without the events.
+
 The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 0.01 s by default):
 the contact set changes on the tick the event is confirmed, before that tick's QP.
 """
@@ -64,10 +67,36 @@ class WalkContactEvents:
         self._lost = {"left": False, "right": False}
         self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
         self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
+        self._rebounding = {"left": False, "right": False}  # blind: a landing sole held for its load (_await_rebound)
+        #: blind: (t, sole) of each landing sole that bounced off the ground during its ramp-in (:meth:`_await_rebound`)
+        self.rebounds: list[tuple[float, str]] = []
+
+    def _await_rebound(self, t: float) -> None:
+        """Blind walk (always, not only with ``contact_events``): a landing sole (switcher phase ``loading``) whose
+        measured normal force (``measured_normal_force``, ankle F/T) falls back below the switcher's
+        ``contact_force`` during its ramp-in has bounced off the ground it struck. It is touched down again with
+        ``await_load`` (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`): the QP plans at most
+        2 ``contact_force`` on it until the plant loads it again, and its ramp-in starts again from there.
+        Otherwise the ramp-in runs on the sole in the air: the QP plans hundreds of newtons the plant does not
+        give, and the leg drives the sole sideways (benchmarks/records/47-*.md). Nothing happens without the
+        measured forces."""
+        f, sw = self.measured_normal_force, self.switcher
+        if f is None or sw.contact_force is None:
+            return
+        for j, side in enumerate(("left", "right")):
+            if sw.phase(side) != "loading" or float(f[j]) >= sw.contact_force:
+                self._rebounding[side] = False
+            elif not self._rebounding[side]:
+                sw.touch_down(side, t, await_load=True)
+                self._rebounding[side] = True
+                self.rebounds.append((float(t), side))
 
     def _follow_contacts(self, t: float, controller, tp: float) -> None:
-        """One tick of the events; release, cut or set down soles (module docstring); nothing when off. ``tp``:
-        the plan clock (s; a swinging sole is planned down once its planned touch-down has passed)."""
+        """One tick of the events; release, cut or set down soles (module docstring); nothing when off (a blind
+        walk's :meth:`_await_rebound` runs first, on or off). ``tp``: the plan clock (s; a swinging sole is planned
+        down once its planned touch-down has passed)."""
+        if self.blind:
+            self._await_rebound(t)
         if self.contact_monitor is None:
             return
         landing_due = {s: tp >= a[2] * self.dt - 1e-9 for s, a in self._active.items()}

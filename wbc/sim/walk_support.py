@@ -180,12 +180,11 @@ class WalkSupport:
         CoP (m, sole frame) from its F/T ground reaction (``measured_wrench``, sole axes). |ω_y| >
         :data:`BLIND_ROLL_RATE` (pitching): the contact's x range becomes [p_x − h, p_x + h]; |ω_x| > rate (rolling):
         its y range [p_y − h, p_y + h]; h = :data:`BLIND_CUT_BAND` — a line contact through the pivot (the measured
-        CoP of a sole rotating about a line of support lies on that line). Only about a pivot at least
-        :data:`BLIND_PIVOT_INSET` inside the sole's edges (a sole coming down flat about its heel or side edge is
-        settling onto the ground, not rolling over it). A band lasts while the rotation does and
-        :data:`BLIND_CUT_HOLD` s after, at most until the sole leaves full contact. It bounds the QP's corner forces
-        (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`, clipped to the sole, at least
-        :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`).
+        CoP of a sole rotating about a line of support lies on that line), an edge of the sole included (a sole
+        landed on its edge and turning flat about it; :data:`~wbc.gait.blind.BLIND_PIVOT_SLACK`). A band lasts
+        while the rotation does and :data:`BLIND_CUT_HOLD` s after, at most until the sole leaves full contact. It
+        bounds the QP's corner forces (:meth:`wbc.constraints.sole_contact.SoleContact.set_support`, clipped to the
+        sole, at least :data:`BLIND_CUT_MIN` wide) and the stabilizer's support area (:meth:`_hull`).
         Nothing happens without measured wrenches (ground-truth state)."""
         contacts = getattr(controller, "contacts", None)
         f, W = self.measured_normal_force, self.measured_wrench
