@@ -161,8 +161,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             progress is **lengthened** instead (by at most ``max_stretch`` s) when, in its last ``stretch_window``
             s, the adjusted landing is farther from the foot than ``stretch_speed`` (m/s) times the time left
             (``_stretch``: a push late in a swing towards the swing side; the foot lands later and further out,
-            ``adjust_freeze`` notwithstanding); the stretched rest of the swing gets a clearance bump of its own
-            (``_add_relift``: the plan's stretched final descent would slide the sole along the floor).
+            ``adjust_freeze`` notwithstanding; the stretched rest of the swing rises again, ``_add_relift``).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
         stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s}`` (either or both; default the
             stabilizer's own). Its CoP feedback gain k_z is ``zmp_feedback``.
@@ -432,9 +431,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
-        self._skipped = -1  # swing whose timing was changed (cut short)
-        self._stretched = -1  # swing that was lengthened
-        self._relift = None  # (side, stretch and touch-down plan samples, height m) of a stretched swing (_add_relift)
+        self._skipped, self._stretched, self._relift = -1, -1, None  # swings cut / lengthened; _add_relift
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing or its last cut
         self._nominal = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self._cut_samples = 0  # samples by which the current swing was cut short so far
@@ -642,8 +639,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                     rot_t, pos = P[:3, :3].T.copy(), P[:3, 3].copy()
                     if self.terrain_walk is not None or self.blind:
                         pos[2] += self._swing_offset(side, kk, k_lift, k_td)
-                if self._relift is not None and self._relift[0] == side and self._relift[2] == k_td:
-                    self._add_relift(kk, pos, vel, acc)
+                self._add_relift(side, k_td, kk, pos, vel, acc)  # (a stretched swing: its rest re-lifted)
                 late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
                     drop = self.max_descent

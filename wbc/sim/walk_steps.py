@@ -231,10 +231,11 @@ class WalkSteps:
                                       r.sole_width - 2 * self.cop_margin)
         return polygon_margin(np.asarray(xi, float), convex_hull(sole)) >= 0.0
 
-    def _add_relift(self, kk: int, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
-        """Add the re-lift of the stretched swing (``_relift``: side, plan samples ``k1`` of the stretch and ``k_td``
-        of the touch-down, height ``h`` m) at plan sample ``kk`` to its reference ``pos`` (3,) m, ``vel`` (6,) m/s
-        and ``acc`` (6,) m/s² (world; in place, vertical rows only).
+    def _add_relift(self, side: str, k_td: int, kk: int, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
+        """When the swing of ``side`` landing at plan sample ``k_td`` was stretched (``_relift``: side, plan samples
+        ``k1`` of the stretch and ``k_td`` of the touch-down, height ``h`` m), add its re-lift at plan sample ``kk``
+        to its reference ``pos`` (3,) m, ``vel`` (6,) m/s and ``acc`` (6,) m/s² (world; in place, vertical rows
+        only); else nothing.
 
         A stretch comes in the last ``stretch_window`` s of a swing, when the sole is in its final descent;
         :meth:`wbc.gait.WalkPlan.replan` stretches the rest of that descent in time and blends the landing's move
@@ -245,7 +246,10 @@ class WalkSteps:
         bump of :mod:`wbc.gait.swing`, ``h · 64 s³ (1 − s)³`` with ``s = (kk − k1) / (k_td − k1)``, and ``h``
         the walk's step height scaled by the rest's share of the planned single support (the nominal swing's
         peak vertical speed, ``h / T``)."""
-        _, k1, k_td, h = self._relift
+        relift = self._relift
+        if relift is None or relift[0] != side or relift[2] != k_td:
+            return
+        _, k1, _, h = relift
         n = k_td - k1
         s = min(max((kk - k1) / n, 0.0), 1.0)
         T = n * self.dt
