@@ -35,7 +35,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   on): the landing and the touch-down time of the swing from one QP on the DCM
   (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020), the swing cut short when the QP lands it 0.02 s
   or more earlier, no earlier than its foot can still travel at ``max_swing_speed``; late in a swing, a landing the
-  foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``). The stabilizer may put the CMP outside the support area by
+  foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``), whose stretched rest
+  rises off the floor again (``WalkScenario._add_relift``). The stabilizer may put the CMP outside the support area by
   ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
@@ -160,7 +161,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             progress is **lengthened** instead (by at most ``max_stretch`` s) when, in its last ``stretch_window``
             s, the adjusted landing is farther from the foot than ``stretch_speed`` (m/s) times the time left
             (``_stretch``: a push late in a swing towards the swing side; the foot lands later and further out,
-            ``adjust_freeze`` notwithstanding).
+            ``adjust_freeze`` notwithstanding; the stretched rest of the swing rises again, ``_add_relift``).
         cmp_offset: hip strategy of :class:`DcmStabilizer` (m, CMP outside the support area).
         stabilizer_gains: :class:`DcmStabilizer` gains ``{"k_xi": 1/s, "k_i": 1/s}`` (either or both; default the
             stabilizer's own). Its CoP feedback gain k_z is ``zmp_feedback``.
@@ -430,8 +431,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 side = _CODE_SWING[int(ph.support)]
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
-        self._skipped = -1  # swing whose timing was changed (cut short)
-        self._stretched = -1  # swing that was lengthened
+        self._skipped, self._stretched, self._relift = -1, -1, None  # swings cut / lengthened; _add_relift
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing or its last cut
         self._nominal = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self._cut_samples = 0  # samples by which the current swing was cut short so far
@@ -639,6 +639,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                     rot_t, pos = P[:3, :3].T.copy(), P[:3, 3].copy()
                     if self.terrain_walk is not None or self.blind:
                         pos[2] += self._swing_offset(side, kk, k_lift, k_td)
+                self._add_relift(side, k_td, kk, pos, vel, acc)  # (a stretched swing: its rest re-lifted)
                 late = tp - k_td * dt
                 if late > 0:  # late touch-down: keep descending slowly until the state says contact
                     drop = self.max_descent

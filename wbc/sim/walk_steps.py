@@ -1,6 +1,6 @@
 """Step adjustment of a physics walk (:class:`wbc.sim.walk.WalkScenario`, :class:`WalkSteps`): the landing point
-following the measured DCM during a swing, the swing cut short or stretched, the capture step after the last step
-and the scheduled push."""
+following the measured DCM during a swing, the swing cut short or stretched (the stretched rest re-lifted off the
+floor), the capture step after the last step and the scheduled push."""
 
 from __future__ import annotations
 
@@ -156,6 +156,8 @@ class WalkSteps:
                 self._cut_samples += skip
             else:
                 self._stretched = idx
+                _, k_lift, k_td, _ = self.swings[idx]  # the rest of the swing rises again (_add_relift)
+                self._relift = (side, k1, k_td, self.step_height * (k_td - k1) / (k_td - k_lift))
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
@@ -228,3 +230,30 @@ class WalkSteps:
         sole = projected_sole_corners(self._data.oMf[self._fid[stance]], r.sole_length - 2 * self.cop_margin,
                                       r.sole_width - 2 * self.cop_margin)
         return polygon_margin(np.asarray(xi, float), convex_hull(sole)) >= 0.0
+
+    def _add_relift(self, side: str, k_td: int, kk: int, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray) -> None:
+        """When the swing of ``side`` landing at plan sample ``k_td`` was stretched (``_relift``: side, plan samples
+        ``k1`` of the stretch and ``k_td`` of the touch-down, height ``h`` m), add its re-lift at plan sample ``kk``
+        to its reference ``pos`` (3,) m, ``vel`` (6,) m/s and ``acc`` (6,) m/s² (world; in place, vertical rows
+        only); else nothing.
+
+        A stretch comes in the last ``stretch_window`` s of a swing, when the sole is in its final descent;
+        :meth:`wbc.gait.WalkPlan.replan` stretches the rest of that descent in time and blends the landing's move
+        in, so the sole would travel the added distance a few tenths of a millimetre over the floor, where its heel
+        or toe catches (the estimated sole height is about a millimetre off). Walking push 9813 (record 48): 0.29 m
+        at up to 1.9 m/s; the heel caught, the sole tripped onto its toe and was set down there, 0.24 m short, and
+        the next step could not catch the DCM. The stretched rest is therefore a swing of its own: the clearance
+        bump of :mod:`wbc.gait.swing`, ``h · 64 s³ (1 − s)³`` with ``s = (kk − k1) / (k_td − k1)``, and ``h``
+        the walk's step height scaled by the rest's share of the planned single support (the nominal swing's
+        peak vertical speed, ``h / T``)."""
+        relift = self._relift
+        if relift is None or relift[0] != side or relift[2] != k_td:
+            return
+        _, k1, _, h = relift
+        n = k_td - k1
+        s = min(max((kk - k1) / n, 0.0), 1.0)
+        T = n * self.dt
+        u = s * (1.0 - s)
+        pos[2] += h * 64.0 * u * u * u
+        vel[2] += h * 192.0 * u * u * (1.0 - 2.0 * s) / T
+        acc[2] += h * 384.0 * u * (1.0 - 5.0 * s + 5.0 * s * s) / (T * T)
