@@ -247,8 +247,8 @@ class WalkSteps:
         bump of :mod:`wbc.gait.swing`, ``h · 64 s³ (1 − s)³`` with ``s = (kk − k1) / (k_td − k1)``, and ``h``
         the walk's step height scaled by the rest's share of the planned single support (the nominal swing's
         peak vertical speed, ``h / T``). Not on a blind walk, whose swing descends until a load confirms the
-        ground (its late touch-down): blind rough ground seed 7 (record 48) fell at 27.09 s with the re-lift and
-        passes without it (0 joint-speed exceedances, slide 9.0 mm); the cause was not traced."""
+        ground (its late touch-down): a blind walk on rough ground fell with the re-lift and passed without it
+        (record 48, its last section)."""
         relift = self._relift
         if relift is None or relift[0] != side or relift[2] != k_td:
             return
