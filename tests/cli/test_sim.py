@@ -28,6 +28,9 @@ REFUSED = [
     (["sim", "walk", "--contact-events", "--state", "ground-truth"],
      "wbc sim: error: --contact-events needs the ankle F/T of --state estimated and a stepping scenario (walk, "
      "push-step), got walk --state ground-truth"),
+    (["sim", "push-step", "--contact-events", "--state", "ground-truth"],
+     "wbc sim: error: --contact-events needs the ankle F/T of --state estimated and a stepping scenario (walk, "
+     "push-step), got push-step --state ground-truth"),
 ]
 
 

@@ -1,7 +1,8 @@
-"""Romeo's standing push-step with ``--contact-events``: the right sole the push lifts off the floor is released
-from the contact set, held flat and set down again (issue 61's contact-loss case; without the events the controller
-kept it a contact with 0 N in the air and then loaded it 1–3 mm up: RHipYaw 1.29× its 0.32 rad/s limit,
-tests/fixtures/contact_loss_romeo_push_step.npz and tests/estimation/test_contact_events.py).
+"""Romeo's standing push-step as a user runs it (``wbc sim push-step``: contact events on by default on estimated
+state, standing air height :data:`wbc.sim.capture_step.STANDING_AIR_HEIGHT`): the right sole the push lifts off
+the floor is released from the contact set, held flat and set down again (issue 61's contact-loss case; without
+the events the controller kept it a contact with 0 N in the air and then loaded it 1–3 mm up: RHipYaw 1.29× its
+0.32 rad/s limit, tests/fixtures/contact_loss_romeo_push_step.npz and tests/estimation/test_contact_events.py).
 
 References are the plant's, independent of the controller's estimate: MuJoCo's ground reaction on the sole and
 the lowest sole corner by Pinocchio's forward kinematics of the logged MuJoCo configuration.
@@ -19,7 +20,7 @@ def test_romeo_push_step_releases_the_lifted_sole_and_sets_it_down(cli, tmp_path
     import wbc
 
     log, out = tmp_path / "romeo.npz", tmp_path / "romeo.json"
-    code, err, _ = cli(["sim", "push-step", "--robot", "examples/robots/romeo.toml", "--contact-events", "--quiet",
+    code, err, _ = cli(["sim", "push-step", "--robot", "examples/robots/romeo.toml", "--quiet",
                         "--log", str(log), "--json", str(out)])
     s = json.loads(out.read_text())
     assert code == 0 and s["passed"], (err, s["failed_criteria"])
@@ -43,9 +44,9 @@ def test_romeo_push_step_releases_the_lifted_sole_and_sets_it_down(cli, tmp_path
         return float((corners @ data.oMf[fid].rotation[2]).min() + data.oMf[fid].translation[2])
 
     # released after the push (0.5-0.6 s) while the plant's sole was in the air: 0 N for the 10 ms before, its
-    # lowest corner over 2 mm at the release
+    # lowest corner over 1 mm at the release
     assert 0.6 < t_rel < 0.8
-    assert (fz[k_rel - 5:k_rel + 1] < 0.02 * weight).all() and lowest(k_rel) > 0.002
+    assert (fz[k_rel - 5:k_rel + 1] < 0.02 * weight).all() and lowest(k_rel) > 0.001
     # no contact of the controller on it (so no force planned) from the release to the touch-down ...
     assert not d["contact_active"][k_rel + 1:k_td, 1].any() and d["contact_active"][k_td + 1:, 1].all()
     # ... which the plant confirms: the sole down and loaded (MuJoCo) within 10 ms of it, 0.05-0.2 s later

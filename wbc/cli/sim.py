@@ -7,6 +7,7 @@ Scenarios and their acceptance criteria are in :mod:`wbc.sim.scenarios`. Exit co
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
 
@@ -64,6 +65,8 @@ def check_sim_args(args) -> None:
         raise InvalidInputError("--blind needs --terrain (the plant's ground) and --state estimated (the F/T "
                                 f"touch-down), got --terrain {getattr(getattr(args, 'terrain', None), 'name', None)} "
                                 f"--state {args.state}")
+    if getattr(args, "contact_events", False) is None:  # default: on for a standing push-step on estimated state
+        args.contact_events = args.scenario == "push-step" and args.state == "estimated"
     if getattr(args, "contact_events", False) and (args.scenario not in ("walk", "push-step")
                                                     or args.state != "estimated"):
         raise InvalidInputError(f"--contact-events needs the ankle F/T of --state estimated and a stepping scenario "
@@ -171,10 +174,11 @@ def register(subparsers, add_outputs) -> None:
     w.add_argument("--sole-margin", type=finite(0.0), default=None,
                    help="walk: controller sole shrink per side, m (default 0.1 × sole width, see "
                         "wbc.sim.physics_scenarios.walk_options_for)")
-    w.add_argument("--contact-events", action="store_true",
+    w.add_argument("--contact-events", action=argparse.BooleanOptionalAction, default=None,
                    help="walk, push-step: the QP's contacts follow the contact events measured from the ankle F/T and "
                         "the leg kinematics (a sole that lost contact gets no force until it is down again; "
-                        "wbc.sim.walk_contacts; needs --state estimated; default off)")
+                        "wbc.sim.walk_contacts; needs --state estimated; default: on for push-step with --state "
+                        "estimated, off otherwise)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=finite(0.0, 100.0, valid=MASS_ERROR_VALID), default=0.0,
                    help="walk: plant link-mass error bound, %%: each link's mass scaled by 1 + e, e uniform in "
