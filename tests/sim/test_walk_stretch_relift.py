@@ -85,3 +85,33 @@ def test_walking_push_9813_passes_with_the_stretched_swing_relifted(cli, tmp_pat
     assert (fz[k0:k_td] < 1.0).all() and fz[k_td:k_td + n + 1].max() > 0.05 * robot.mass * robot.gravity
     assert max(lowest_and_tilt(k)[1] for k in range(k_td, k_td + 4 * n)) < 2.0  # (before the fix: 5°, on its toe)
     assert d["sole_pos"][k_td, 1, 0] > 1.75  # (the tripped sole: 1.547 m)
+
+
+BLIND_STRETCH = ["sim", "walk", "--blind", "--terrain", "rough:0.005:7400", "--steps", "4", "--step-length", "0.25",
+                 "--push", "250", "--push-time", "2.2", "--push-dir", "90", "--quiet"]
+
+
+def test_a_blind_walk_keeps_its_stretched_swing_descending(cli, tmp_path, monkeypatch):
+    """A blind walk's swing descends until a load confirms the ground (its late touch-down): a stretch of it gets no
+    re-lift (``WalkSteps._adjust_step`` arms ``_relift`` only when not blind; record 48's last section). A short
+    blind walk over gentle rough ground pushed sideways late in a swing stretches that swing; every call of
+    ``_add_relift`` in the run leaves the swing reference (height, vertical velocity and acceleration) as the walk
+    planned it. (The push is strong enough to fell the walk later: only the references matter here.)"""
+    from wbc.sim.walk import WalkScenario
+
+    original = WalkScenario._add_relift
+    raised = []
+
+    def spy(self, side, k_td, kk, pos, vel, acc):
+        before = (float(pos[2]), float(vel[2]), float(acc[2]))
+        original(self, side, k_td, kk, pos, vel, acc)
+        if (float(pos[2]), float(vel[2]), float(acc[2])) != before:
+            raised.append((side, kk))
+
+    monkeypatch.setattr(WalkScenario, "_add_relift", spy)
+    out = tmp_path / "w.json"
+    code, err, _ = cli(BLIND_STRETCH + ["--json", str(out)])
+    s = json.loads(out.read_text())
+    assert code in (0, 1), err
+    assert min(s["step_timing_changes_s"]) < 0  # a swing was stretched
+    assert raised == []

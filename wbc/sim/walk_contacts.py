@@ -18,8 +18,10 @@ the switcher holds as a contact (``stance`` or ``loading``):
   most ``max_descent``) until the events see it down again (``touchdown``: flat and loaded); it is then switched
   on with the switcher's ramp-in (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`).
 
-A blind walk also holds a landing sole that bounced off the ground in its ramp-in until it is loaded again
-(:meth:`WalkContactEvents._await_rebound`), with or without the events.
+A blind walk also follows a sole that left the ground while the controller held it as a contact (a landing sole
+bounced off the ground, in its ramp-in or after it), with or without the events: in its ramp-in it is held at a
+bounded load until it is loaded again, fully loaded it is released and lowered back where it landed
+(:meth:`WalkContactEvents._await_rebound`).
 
 The reaction's latency is the events' confirmation time (:attr:`ContactEventMonitor.latency`, 0.01 s by default):
 the contact set changes on the tick the event is confirmed, before that tick's QP.
@@ -68,35 +70,86 @@ class WalkContactEvents:
         self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
         self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
         self._rebounding = {"left": False, "right": False}  # blind: a landing sole held for its load (_await_rebound)
-        #: blind: (t, sole) of each landing sole that bounced off the ground during its ramp-in (:meth:`_await_rebound`)
+        self._rebound_hold = {"left": None, "right": None}  # blind: (placement, t) of a stance sole released in the air
+        #: blind: (t, sole) of each contact sole that left the ground under a planned load (:meth:`_await_rebound`)
         self.rebounds: list[tuple[float, str]] = []
 
-    def _await_rebound(self, t: float) -> None:
-        """Blind walk (always, not only with ``contact_events``): a landing sole (switcher phase ``loading``) whose
-        measured normal force (``measured_normal_force``, ankle F/T) falls back below the switcher's
-        ``contact_force`` during its ramp-in has bounced off the ground it struck. It is touched down again with
-        ``await_load`` (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`): the QP plans at most
-        2 ``contact_force`` on it until the plant loads it again, and its ramp-in starts again from there.
-        Otherwise the ramp-in runs on the sole in the air: the QP plans hundreds of newtons the plant does not
-        give, and the leg drives the sole sideways (benchmarks/records/47-*.md). Nothing happens without the
-        measured forces."""
+    def _await_rebound(self, t: float, controller) -> None:
+        """Blind walk (always, not only with ``contact_events``): a sole the switcher holds as a contact whose
+        measured normal force (``measured_normal_force``, ankle F/T) falls below the switcher's ``contact_force``
+        has left the ground.
+
+        * In its ramp-in (phase ``loading``) it bounced off the ground it struck: it is touched down again with
+          ``await_load`` (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.touch_down`): the QP plans at most
+          2 ``contact_force`` on it until the plant loads it again, and its ramp-in starts again from there.
+          Otherwise the ramp-in runs on the sole in the air: the QP plans hundreds of newtons the plant does not
+          give, and the leg drives the sole sideways (benchmarks/records/47-*.md).
+        * Fully loaded (phase ``stance``), rising faster than the switcher's ``touchdown_speed`` (the sole's vertical
+          velocity at the tick's state, :meth:`_sole_rise_rate`: the switcher's own test of a sole that is not
+          down), with more than 2 ``contact_force`` still on it in the controller's last QP
+          (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.current_normal_force`) and the other sole a
+          loaded contact: it bounced after its ramp-in ended, or rocked off the ground. (A low reading alone is not
+          enough: the ankle F/T of a loaded sole rolling on its edge reads tens of newtons below the ground's
+          reaction, benchmarks/records/50-*.md.) It is released
+          (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release`, armed for its touch-down) and its foot
+          task holds it at the placement its contact had (the contact's ``reference``: where it landed) while
+          lowering it from there at ``descent_speed`` for at most ``max_descent`` (:meth:`_lower_rebound`), until
+          the switcher's touch-down test sets it down again (a ramp-in follows). A contact held in the air, even
+          at a bounded load, is carried along by the body pivoting over the other sole: its zero-acceleration rows
+          do not hold it where it landed, nor bring it back down (benchmarks/records/50-*.md). A stance sole the
+          QP itself unloaded (its CoP moved to the other sole) is left alone.
+
+        Nothing happens without the measured forces."""
         f, sw = self.measured_normal_force, self.switcher
         if f is None or sw.contact_force is None:
             return
         for j, side in enumerate(("left", "right")):
-            if sw.phase(side) != "loading" or float(f[j]) >= sw.contact_force:
+            phase = sw.phase(side)
+            if self._rebound_hold[side] is not None:
+                if phase == "swing":
+                    self._lower_rebound(controller, side, t)
+                    continue
+                self._rebound_hold[side] = None  # set down again by the switcher
+            if phase not in ("loading", "stance") or float(f[j]) >= sw.contact_force:
                 self._rebounding[side] = False
-            elif not self._rebounding[side]:
-                sw.touch_down(side, t, await_load=True)
-                self._rebounding[side] = True
+            elif phase == "loading":
+                if not self._rebounding[side]:
+                    sw.touch_down(side, t, await_load=True)
+                    self._rebounding[side] = True
+                    self.rebounds.append((float(t), side))
+            elif sw.current_normal_force(side) > 2.0 * sw.contact_force \
+                    and sw.phase(_OTHER_SOLE[side]) in ("loading", "stance") \
+                    and float(f[1 - j]) >= sw.contact_force and self._sole_rise_rate(side) > sw.touchdown_speed:
+                ref = controller.contacts[side].reference
+                sw.release(side, t)
+                sw.arm(side)
+                if ref is None:  # (no landing placement: hold it where it is)
+                    ref = controller.feet[side].task.target
+                self._rebound_hold[side] = (pin.SE3(ref.rotation, ref.translation), float(t))
                 self.rebounds.append((float(t), side))
+                self._lower_rebound(controller, side, t)
+
+    def _sole_rise_rate(self, side: str) -> float:
+        """Vertical velocity (m/s, world, up > 0) of the sole of ``side`` at the tick's state (``self._data``: the
+        walk's forward pass with velocities of :meth:`wbc.sim.walk.WalkScenario.update`)."""
+        return float(pin.getFrameVelocity(self._model, self._data, self._fid[side], pin.LOCAL_WORLD_ALIGNED).linear[2])
+
+    def _lower_rebound(self, controller, side: str, t: float) -> None:
+        """The foot reference of a stance sole released in the air (:meth:`_await_rebound`): its contact's placement,
+        lowered at ``descent_speed`` for at most ``max_descent`` since the release."""
+        pose, t0 = self._rebound_hold[side]
+        drop = self.descent_speed * (t - t0)
+        vel = np.zeros(6)
+        vel[2] = -self.descent_speed if drop < self.max_descent else 0.0
+        target = pin.SE3(pose.rotation, pose.translation - [0.0, 0.0, min(drop, self.max_descent)])
+        controller.set_foot_reference(side, target, vel, np.zeros(6))
 
     def _follow_contacts(self, t: float, controller, tp: float) -> None:
         """One tick of the events; release, cut or set down soles (module docstring); nothing when off (a blind
         walk's :meth:`_await_rebound` runs first, on or off). ``tp``: the plan clock (s; a swinging sole is planned
         down once its planned touch-down has passed)."""
         if self.blind:
-            self._await_rebound(t)
+            self._await_rebound(t, controller)
         if self.contact_monitor is None:
             return
         landing_due = {s: tp >= a[2] * self.dt - 1e-9 for s, a in self._active.items()}
