@@ -432,6 +432,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 self.swings.append((side, ph.first, ph.end, plan.footsteps[ph.step]))
         self._rp, self._rp_k0 = plan, 0  # latest (re)plan and the original sample of its sample 0
         self._skipped, self._stretched, self._relift = -1, -1, None  # swings cut / lengthened; _add_relift
+        self._pre_stretch = None  # the plan before the last stretch (_undo_stretch)
         self._base = None  # (swing index, footstep, DCM reference) at the start of the current swing or its last cut
         self._nominal = None  # (swing index, footstep, DCM reference) at the start of the current swing
         self._cut_samples = 0  # samples by which the current swing was cut short so far
@@ -653,6 +654,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                     controller.set_foot_reference(side, pin.SE3(rot_t.T, pos), vel, acc)
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
                     and sw.touchdown_time[side] > self._t_unload[side]:
+                self._undo_stretch(side, tf, k)  # (a stretched swing set down before it rose again)
                 del self._active[side]
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
