@@ -36,9 +36,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020), the swing cut short when the QP lands it 0.02 s
   or more earlier, no earlier than its foot can still travel at ``max_swing_speed``; late in a swing, a landing the
   foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``), whose stretched rest
-  rises off the floor again (``WalkScenario._add_relift``), as does the rest of a swing whose landing moves in its
-  descent with the sole low; a stretched sole set down before it rose lands where it was, and the plan before the
-  stretch is restored (``WalkScenario._swing_landed``). The stabilizer may put the CMP
+  rises off the floor again (``WalkScenario._add_relift``); a stretched sole set down before it rose lands where it
+  was, and the plan before the stretch is restored (``WalkScenario._swing_landed``). The stabilizer may put the CMP
   outside the support area by ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step

@@ -167,13 +167,6 @@ class WalkSteps:
                     self._relift = (side, k1, k_td, self.step_height * (k_td - k1) / (k_td - k_lift))
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
-        elif not self.blind and 2 * k > k_lift + k_td and not (self._relift is not None and self._relift[0] == side
-                                                               and self._relift[2] == k_td):
-            sw = self.switcher  # a landing moved in the descent, the sole low: its rest re-lifted too (_add_relift)
-            if float(self._data.oMf[self._fid[side]].translation[2]) - sw.ground_height[side] \
-                    <= sw.touchdown_force_height:
-                self._relift = (side, k, k_td, self.step_height * (k_td - k) / (k_td - k_lift))
-                self._pre_stretch = None
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
 
     def _step_timing(self, idx, k, xi, stance, foot, target, descent):
@@ -287,13 +280,7 @@ class WalkSteps:
         the walk's step height scaled by the rest's share of the planned single support (the nominal swing's
         peak vertical speed, ``h / T``). Not on a blind walk, whose swing descends until a load confirms the
         ground (its late touch-down): a blind walk on rough ground fell with the re-lift and passed without it
-        (record 48, its last section).
-
-        The same holds for a landing moved without a stretch in the second half of a swing, once the sole is within
-        the switcher's force-test height of its ground (``ContactSwitcher.touchdown_force_height``): the replan
-        blends the move into the rest of the descent, so the reference sweeps the sole sideways a millimetre or two
-        over the floor (up to 2 m/s), and it lands still moving, onto its edge (record 52). Its rest gets the same
-        bump (``_relift`` set at the first such move of the swing, ``k1`` the plan sample of that move)."""
+        (record 48, its last section)."""
         relift = self._relift
         if relift is None or relift[0] != side or relift[2] != k_td:
             return
