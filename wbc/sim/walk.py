@@ -36,8 +36,9 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020), the swing cut short when the QP lands it 0.02 s
   or more earlier, no earlier than its foot can still travel at ``max_swing_speed``; late in a swing, a landing the
   foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``), whose stretched rest
-  rises off the floor again (``WalkScenario._add_relift``). The stabilizer may put the CMP outside the support area by
-  ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
+  rises off the floor again (``WalkScenario._add_relift``); a stretched sole set down before it rose lands where it
+  was, and the plan before the stretch is restored (``WalkScenario._swing_landed``). The stabilizer may put the CMP
+  outside the support area by ``cmp_offset`` (hip strategy, :class:`DcmStabilizer`).
 
 Summary (``extra_summary``): walked vs commanded distance (feet mid-point, m) and final heading (rad), per-step
 landing error (m, sole xy vs planned footstep at touch-down), stance slip per stance interval (m, max xy
@@ -653,7 +654,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                     controller.set_foot_reference(side, pin.SE3(rot_t.T, pos), vel, acc)
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
                     and sw.touchdown_time[side] > self._t_unload[side]:
-                del self._active[side]
+                self._swing_landed(side, tf, k)  # (a stretch undone when the sole never rose again)
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
         self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)

@@ -23,6 +23,8 @@ class WalkSteps:
     """Step adjustment, capture step and push of :class:`wbc.sim.walk.WalkScenario` (its state: the plan, the
     switcher, the step adjuster)."""
 
+    _pre_stretch = None  # the plan before the last stretch, set in _adjust_step (_swing_landed)
+
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
         (a 2-step walk planned from the measured state, first step from the measured DCM), as
@@ -139,6 +141,10 @@ class WalkSteps:
             self.replan_failures += 1
             return
         k1 = k + skip  # the plan sample of the current time after the timing change
+        if skip < 0 and not self.blind:  # (the plan as it was, for _swing_landed)
+            soles = {s: (self.poses[s].copy(), self.vels[s].copy(), self.acc[s].copy()) for s in ("left", "right")}
+            self._pre_stretch = (self._rp, self._rp_k0, list(self.swings), soles, self.ref_dcm.copy(),
+                                 self.ref_zmp.copy(), self._shift, self._base, len(self.adjustments))
         self._rp, self._rp_k0 = rp, k1
         for (i, sw), f in zip(remaining, new):
             self.swings[i] = (sw[0], sw[1], sw[2], f)
@@ -221,6 +227,32 @@ class WalkSteps:
             return 0
         limits = StretchLimits(self.max_stretch, self.stretch_speed, self.stretch_min, self.dt)
         return self.adjuster.stretch_samples(limits, fs0, fs, stance, corr, target, foot, (xi, xi_ref), time_left)
+
+    def _swing_landed(self, side: str, t: float, k: int) -> None:
+        """The swing of ``side`` touched down (its entry leaves ``_active``) at time ``t`` (s), plan sample ``k``.
+        When that swing had been stretched (``_relift``) and its re-lift has not yet reached its peak (``k`` in the
+        first half of the stretched rest), the sole never rose off the floor and lands where it was, not at the
+        stretched landing: the plan before the stretch (``_pre_stretch``: the remaining footsteps, soles, DCM and
+        ZMP references, the plan clock) is restored, and the stretch undone in ``timing_changes`` (its length again,
+        with the opposite sign).
+
+        The stretch moves every remaining footstep and the DCM plan by the stretched landing's offset (0.2–0.3 m
+        on a push late in a swing); with the sole down where it was, the next steps were planned from a footstep
+        it never reached, and the other foot's swing then started with the DCM beyond the landed sole, which it
+        cannot cross to capture (record 52)."""
+        del self._active[side]
+        relift, pre = self._relift, self._pre_stretch
+        if relift is None or pre is None or relift[0] != side or 2 * k >= relift[1] + relift[2]:
+            return
+        self._rp, self._rp_k0, swings, soles, dcm, zmp, shift, self._base, n_adj = pre
+        self.swings[:] = swings
+        for s, (P, V, A) in soles.items():
+            self.poses[s][:], self.vels[s][:], self.acc[s][:] = P, V, A
+        self.ref_dcm[:], self.ref_zmp[:] = dcm, zmp
+        self.timing_changes.append((float(t), side, (shift - self._shift) * self.dt))
+        self._shift = shift
+        del self.adjustments[n_adj:]
+        self._relift = self._pre_stretch = None
 
     def _capturable(self, xi: np.ndarray, stance: str) -> bool:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
