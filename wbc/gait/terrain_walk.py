@@ -9,9 +9,13 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    lies on one planar surface (:meth:`wbc.terrain.Terrain.sole_support` ≤ 2 mm): full sole support, clear of the
    step edges. When the supported shifts around it are bounded by edges on both sides (a stair tread), a step
    down goes to the middle of them instead — centred on the tread, the same distance from the nosing behind and
-   the one ahead —, and a step up halfway there (the toe kept further from the next riser, which the swing
-   clears), so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance sole
-   that creeps) still lands wholly on its tread. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
+   the one ahead, so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance
+   sole that creeps) still lands wholly on its tread —, a level step halfway there, and a step up to the back of
+   them: the heel ``edge_margin`` in front of the nosing behind, the toe as far from the next riser as the tread
+   allows. Going up, the stance leg is bent while the CoM rises over it and its shin leans forward over the nosing
+   of the next tread, at the height of the rise above the sole: every millimetre the foot stands further back is
+   margin between that shin and the nosing (record 49; a foot landing long moves towards the middle of its tread,
+   one landing short has ``edge_margin``). The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
    (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
 2. **Sole poses.** A foothold's sole origin sits at the terrain height under it; its z axis is the terrain
    normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
@@ -134,7 +138,8 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
     """Shift along the heading (m) giving full sole support, or None. ``d``: the smallest supported shift (5 mm
     grid, within ``max_shift``); when edges bound the run of supported shifts holding ``d`` on both sides (a tread),
     its middle ``m`` (the sole centred on the tread) for a foothold lower than ``below`` (m, the stance sole's
-    height: a step down), else ``(d + m) / 2``; ``d`` when the run is not bounded (a landing, the floor)."""
+    height: a step down), its lowest end (the back of the tread) for a foothold higher than ``below`` (a step up),
+    else ``(d + m) / 2``; ``d`` when the run is not bounded (a landing, the floor)."""
     c, s = math.cos(yaw), math.sin(yaw)
     n = int(max_shift / _SHIFT_STEP)
     ok = [terrain.sole_support(x + c * k * _SHIFT_STEP, y + s * k * _SHIFT_STEP, yaw, length, width, margin)
@@ -151,7 +156,10 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
     if lo == -n or hi == n:
         return d
     mid = 0.5 * (lo + hi) * _SHIFT_STEP
-    if below is not None and terrain.height(x + c * mid, y + s * mid) >= below - 1e-3:
+    z = terrain.height(x + c * mid, y + s * mid)
+    if below is not None and z > below + 1e-3:  # a step up: the back of the tread
+        return lo * _SHIFT_STEP
+    if below is not None and z >= below - 1e-3:
         return 0.5 * (d + mid)
     return mid
 
