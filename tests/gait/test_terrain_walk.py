@@ -246,3 +246,29 @@ def test_steps_to_cross_flat_plan_closed_form_and_no_end():
         assert got == math.ceil((end + L / 2) / 0.3 - 1e-12) + 1, spec
     assert steps_to_cross("rough:0.02:1", left, right, step_length=0.3) is None
     assert steps_to_cross("stairs:0.1:0.3:3", left, right, step_length=0.0) is None
+
+
+@pytest.mark.parametrize("spec", ["stairs:0.22:0.3:6:updown", "stairs:0.1:0.3:6:up", "stairs:0.23:0.3:6:down"])
+def test_steps_up_stand_at_the_back_of_their_tread_and_steps_down_in_its_middle(spec):
+    """Against the stairs' tread intervals: a foothold higher than its stance foot has its heel ``edge_margin``
+    (within the 5 mm search grid) in front of the nosing behind it, so its toe is ``tread − sole − edge_margin``
+    from the next riser (the stance shin leans over that riser's nosing while the CoM rises, module docstring); a
+    foothold lower than its stance foot on a tread is centred on it (within half a grid step)."""
+    margin, grid = 0.02, 0.005
+    tw = _plan(spec, n_steps=16, edge_margin=margin)
+    treads = [tr for tr in tw.terrain.treads if math.isfinite(tr[0]) and tr[1] - tr[0] < 0.5]  # not floor/landing
+    z_stance = {"left": 0.0, "right": 0.0}
+    ups = downs = 0
+    for fs, H in zip(tw.plan.footsteps, tw.footholds):
+        x, z = H[0, 3], H[2, 3]
+        stance = "right" if fs.side == "left" else "left"
+        on = [tr for tr in treads if tr[0] <= x <= tr[1]]
+        if on and z > z_stance[stance] + 1e-3:
+            ups += 1
+            assert -1e-9 <= (x - L / 2) - (on[0][0] + margin) < grid + 1e-9, (spec, x, on[0])
+            assert on[0][1] - (x + L / 2) >= (on[0][1] - on[0][0]) - L - margin - grid - 1e-9
+        elif on and z < z_stance[stance] - 1e-3:
+            downs += 1
+            assert abs(x - 0.5 * (on[0][0] + on[0][1])) <= grid / 2 + 1e-9, (spec, x, on[0])
+        z_stance[fs.side] = z
+    assert ups >= (4 if "up" in spec else 0) and downs >= (4 if "down" in spec else 0)

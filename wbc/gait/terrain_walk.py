@@ -9,10 +9,16 @@ timing, xy LIPM/DCM) and fits it to a :class:`wbc.terrain.Terrain`:
    lies on one planar surface (:meth:`wbc.terrain.Terrain.sole_support` ≤ 2 mm): full sole support, clear of the
    step edges. When the supported shifts around it are bounded by edges on both sides (a stair tread), a step
    down goes to the middle of them instead — centred on the tread, the same distance from the nosing behind and
-   the one ahead —, and a step up halfway there (the toe kept further from the next riser, which the swing
-   clears), so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance sole
-   that creeps) still lands wholly on its tread. The next step is measured from the shifted one. The xy plan is then re-solved for these footholds
-   (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
+   the one ahead, so that a foot landing a few centimetres short or long (an estimated base that drifts, a stance
+   sole that creeps) still lands wholly on its tread —, a level step halfway there, and a step up to the back of
+   them: the heel ``edge_margin`` in front of the nosing behind, the toe as far from the next riser as the tread
+   allows. Going up, the stance leg is bent while the CoM rises over it and its shin leans forward over the nosing
+   of the next tread, at the height of the rise above the sole: every millimetre the foot stands further back is
+   margin between that shin and the nosing (record 49; a foot landing long moves towards the middle of its tread,
+   one landing short has ``edge_margin``). The next step is measured from the shifted one — a step up's from
+   halfway between its nominal landing and the middle of its tread, so that moving it back does not carry over to
+   the steps after the climb (the footholds on the landing and down the stairs stay where they were). The xy plan
+   is then re-solved for these footholds (:meth:`wbc.gait.WalkPlan.replan` at sample 0 from the same CoM state).
 2. **Sole poses.** A foothold's sole origin sits at the terrain height under it; its z axis is the terrain
    normal there (the smallest rotation taking ``e_z`` to the normal, applied to the heading's yaw rotation), so
    soles lie flat on slopes.
@@ -130,11 +136,13 @@ def foothold_pose(terrain: Terrain, x: float, y: float, yaw: float) -> np.ndarra
 
 
 def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, width: float, margin: float,
-           max_shift: float, below: float | None = None) -> float | None:
-    """Shift along the heading (m) giving full sole support, or None. ``d``: the smallest supported shift (5 mm
-    grid, within ``max_shift``); when edges bound the run of supported shifts holding ``d`` on both sides (a tread),
-    its middle ``m`` (the sole centred on the tread) for a foothold lower than ``below`` (m, the stance sole's
-    height: a step down), else ``(d + m) / 2``; ``d`` when the run is not bounded (a landing, the floor)."""
+           max_shift: float, below: float | None = None) -> tuple[float, float] | None:
+    """(Shift along the heading (m) giving full sole support, the shift the next step is measured from), or None.
+    ``d``: the smallest supported shift (5 mm grid, within ``max_shift``); when edges bound the run of supported
+    shifts holding ``d`` on both sides (a tread), its middle ``m`` (the sole centred on the tread) for a foothold
+    lower than ``below`` (m, the stance sole's height: a step down), its lowest end (the back of the tread) for a
+    foothold higher than ``below`` (a step up; the next step measured from ``(d + m) / 2``), else ``(d + m) / 2``;
+    ``d`` when the run is not bounded (a landing, the floor)."""
     c, s = math.cos(yaw), math.sin(yaw)
     n = int(max_shift / _SHIFT_STEP)
     ok = [terrain.sole_support(x + c * k * _SHIFT_STEP, y + s * k * _SHIFT_STEP, yaw, length, width, margin)
@@ -149,11 +157,14 @@ def _place(terrain: Terrain, x: float, y: float, yaw: float, length: float, widt
     while hi + 1 <= n and ok[hi + 1 + n]:
         hi += 1
     if lo == -n or hi == n:
-        return d
+        return d, d
     mid = 0.5 * (lo + hi) * _SHIFT_STEP
-    if below is not None and terrain.height(x + c * mid, y + s * mid) >= below - 1e-3:
-        return 0.5 * (d + mid)
-    return mid
+    z = terrain.height(x + c * mid, y + s * mid)
+    if below is not None and z > below + 1e-3:  # a step up: the back of the tread
+        return lo * _SHIFT_STEP, 0.5 * (d + mid)
+    if below is not None and z >= below - 1e-3:
+        return 0.5 * (d + mid), 0.5 * (d + mid)
+    return mid, mid
 
 
 def _footholds(terrain: Terrain, footsteps, left: np.ndarray, right: np.ndarray, length: float, width: float,
@@ -168,18 +179,19 @@ def _footholds(terrain: Terrain, footsteps, left: np.ndarray, right: np.ndarray,
     pos = {"left": (float(left[0, 3]), float(left[1, 3])), "right": (float(right[0, 3]), float(right[1, 3]))}
     steps, shifts = [], []
     for i, fs in enumerate(footsteps):
-        step, d = _foothold(terrain, i, fs, footsteps[i - 1] if i else None, pos, length, width, edge_margin,
-                            max_shift, step_length)
+        step, d, ref = _foothold(terrain, i, fs, footsteps[i - 1] if i else None, pos, length, width, edge_margin,
+                                 max_shift, step_length)
         steps.append(step)
         shifts.append(d)
-        pos[fs.side] = (step.x, step.y)
+        pos[fs.side] = ref
     return steps, shifts
 
 
 def _foothold(terrain: Terrain, i: int, fs: Footstep, prev: Footstep | None, pos: dict, length: float, width: float,
-              edge_margin: float, max_shift: float | None, step_length: float) -> tuple[Footstep, float]:
-    """Footstep ``i`` (``fs``, after the flat footstep ``prev``) placed from the placed soles' xy ``pos`` (by side):
-    (the shifted footstep, its shift in m); see :func:`_footholds`."""
+              edge_margin: float, max_shift: float | None, step_length: float) -> tuple[Footstep, float, tuple]:
+    """Footstep ``i`` (``fs``, after the flat footstep ``prev``) placed from the xy ``pos`` (by side) the next steps
+    are measured from: (the shifted footstep, its shift in m, the xy the next step is measured from); see
+    :func:`_footholds`."""
     if max_shift is None:
         max_shift = max(0.5 * abs(step_length), 0.5 * length)
     stance = "right" if fs.side == "left" else "left"
@@ -187,12 +199,13 @@ def _foothold(terrain: Terrain, i: int, fs: Footstep, prev: Footstep | None, pos
         x, y = fs.x, fs.y
     else:  # the nominal offset from the (shifted) stance foot
         x, y = pos[stance][0] + (fs.x - prev.x), pos[stance][1] + (fs.y - prev.y)
-    d = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
-    if d is None:
+    placed = _place(terrain, x, y, fs.yaw, length, width, edge_margin, max_shift, terrain.height(*pos[stance]))
+    if placed is None:
         raise GaitError(f"step {i + 1} ({fs.side}): no foothold with the whole sole ({length} x {width} m) on one "
                         f"surface and {edge_margin} m from its edges within {max_shift:.3f} m of ({x:.3f}, "
                         f"{y:.3f}) m; change step_length (now {step_length} m) or edge_margin")
-    return Footstep(fs.side, x + math.cos(fs.yaw) * d, y + math.sin(fs.yaw) * d, fs.yaw), d
+    (d, r), c, s = placed, math.cos(fs.yaw), math.sin(fs.yaw)
+    return Footstep(fs.side, x + c * d, y + s * d, fs.yaw), d, (x + c * r, y + s * r)
 
 
 def steps_to_cross(terrain: Terrain | str, left_sole, right_sole, *, step_length: float,
@@ -234,8 +247,9 @@ def steps_to_cross(terrain: Terrain | str, left_sole, right_sole, *, step_length
     for n in range(2, max_steps + 1):
         i = n - 2  # the last walking step of count n
         fs = walking[i]
-        step = _foothold(terrain, i, fs, walking[i - 1] if i else None, pos, *args)[0] if on_terrain else fs
-        pos[fs.side] = (step.x, step.y)
+        step, _, ref = (_foothold(terrain, i, fs, walking[i - 1] if i else None, pos, *args) if on_terrain
+                        else (fs, 0.0, (fs.x, fs.y)))
+        pos[fs.side] = ref
         if end > step.x - 0.5 * sole_length:
             continue
         close = plan_footsteps(lft, rgt, n, step_length, step_width, 0.0, first_side)[-1]
