@@ -141,7 +141,7 @@ class WalkSteps:
             self.replan_failures += 1
             return
         k1 = k + skip  # the plan sample of the current time after the timing change
-        if skip < 0 and not self.blind:  # (the plan as it was, for _swing_landed)
+        if skip < 0:  # (the plan as it was, for _swing_landed)
             soles = {s: (self.poses[s].copy(), self.vels[s].copy(), self.acc[s].copy()) for s in ("left", "right")}
             self._pre_stretch = (self._rp, self._rp_k0, list(self.swings), soles, self.ref_dcm.copy(),
                                  self.ref_zmp.copy(), self._shift, self._base, len(self.adjustments))
@@ -162,9 +162,8 @@ class WalkSteps:
                 self._cut_samples += skip
             else:
                 self._stretched = idx
-                _, k_lift, k_td, _ = self.swings[idx]  # the rest of the swing rises again (_add_relift; not blind)
-                if not self.blind:
-                    self._relift = (side, k1, k_td, self.step_height * (k_td - k1) / (k_td - k_lift))
+                _, k_lift, k_td, _ = self.swings[idx]  # the rest of the swing rises again (_add_relift)
+                self._relift = (side, k1, k_td, self.step_height * (k_td - k1) / (k_td - k_lift))
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
@@ -278,9 +277,9 @@ class WalkSteps:
         the next step could not catch the DCM. The stretched rest is therefore a swing of its own: the clearance
         bump of :mod:`wbc.gait.swing`, ``h · 64 s³ (1 − s)³`` with ``s = (kk − k1) / (k_td − k1)``, and ``h``
         the walk's step height scaled by the rest's share of the planned single support (the nominal swing's
-        peak vertical speed, ``h / T``). Not on a blind walk, whose swing descends until a load confirms the
-        ground (its late touch-down): a blind walk on rough ground fell with the re-lift and passed without it
-        (record 48, its last section)."""
+        peak vertical speed, ``h / T``). A blind walk's too: its stretched rest re-lifted, then descending until a
+        load confirms the ground (its late touch-down); records 48 and 55 measure both ways on blind rough
+        ground."""
         relift = self._relift
         if relift is None or relift[0] != side or relift[2] != k_td:
             return
