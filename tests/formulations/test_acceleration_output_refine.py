@@ -139,7 +139,9 @@ def test_unpolishable_answer_takes_quadprogs_solve(robots, monkeypatch):
     assert cmd.ok and not cmd.relaxed, cmd.message
     assert cmd.path == "general:quadprog" and cmd.path_reason.endswith("→ quadprog"), cmd.path_reason  # refined
     fx, fq = _within_effort_and_costs(robots, ctrl, d, cmd)
-    assert abs(fx - fq) <= 1e-9 * abs(fq)
+    # quadprog on the controller's QP and on the test's dense copy of it: equal costs up to the rounding of the two
+    # assemblies (4.5e-9 relative on an AVX-512 machine, where numba's kernels round differently; < 1e-9 elsewhere)
+    assert abs(fx - fq) <= 1e-8 * abs(fq)
 
 
 def test_answer_no_refinement_fixes_still_fails_the_output_check(robots, monkeypatch):
