@@ -80,3 +80,31 @@ def test_a_signal_ends_a_command_with_its_exit_code(signalled, command, sig):
     assert len(err.splitlines()) == 1, err
     left = [p.name for p in folder.rglob("*") if ".partial" in p.name or p.name.endswith(".tmp")]
     assert left == [], left
+
+
+@pytest.mark.parametrize("cause, code, line", [
+    (KeyboardInterrupt, 130, "wbc walk: interrupted (Ctrl-C); no output written for the unfinished step"),
+    ("terminated", 143, "wbc walk: terminated (SIGTERM)")])
+def test_a_signal_inside_a_compiled_kernel_call_ends_with_its_exit_code(monkeypatch, capsys, cause, code, line):
+    """A signal whose handler runs while a numba kernel is being called (the handler's exception set when the kernel
+    returns) reaches the command as ``SystemError`` raised from it (CPython: "returned a result with an exception
+    set"; seen once in the suite's SIGINT test under load): the run still ends with the signal's exit code and one
+    line, and a SystemError of another cause is not taken for a signal."""
+    import wbc.cli as cli
+    from wbc.cli.output import Terminated
+
+    exc = KeyboardInterrupt() if cause is KeyboardInterrupt else Terminated()
+
+    def kernel_call(args):
+        raise SystemError("CPUDispatcher(<function _tick_kernel>) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(cli, "check_args", kernel_call)
+    assert cli.main(["walk"]) == code
+    assert capsys.readouterr().err.strip() == line
+
+    def other(args):
+        raise SystemError("a C extension's own error") from ValueError("x")
+
+    monkeypatch.setattr(cli, "check_args", other)
+    with pytest.raises(SystemError, match="own error"):
+        cli.main(["walk"])

@@ -144,15 +144,14 @@ def main(argv: list[str] | None = None) -> int:
     except WbcError as exc:
         print(f"wbc {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        if sigterm_received():  # a SIGTERM swallowed by a C callback, raised at the run's next tick
-            print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
-            return 143
-        print(f"wbc {args.command}: interrupted (Ctrl-C); no output written for the unfinished step", file=sys.stderr)
-        return 130
-    except Terminated:
-        print(f"wbc {args.command}: terminated (SIGTERM)", file=sys.stderr)
-        return 143
+    except (KeyboardInterrupt, Terminated) as exc:
+        return _stopped(args.command, isinstance(exc, Terminated) or sigterm_received())
+    except SystemError as exc:
+        # a Ctrl-C or SIGTERM whose handler ran inside a compiled kernel's call (numba's dispatcher returned a result
+        # with the handler's exception set): CPython raises SystemError from it
+        if not isinstance(exc.__cause__, (KeyboardInterrupt, Terminated)):
+            raise
+        return _stopped(args.command, isinstance(exc.__cause__, Terminated) or sigterm_received())
     except BrokenPipeError:  # `wbc ... | head`: the reader has gone; stop quietly
         _silence_stdout()
         return 0
@@ -211,6 +210,16 @@ def _silence_stdout() -> None:
         os.dup2(devnull, sys.stdout.fileno())
     except (OSError, ValueError, AttributeError):
         pass
+
+
+def _stopped(command: str, terminated: bool) -> int:
+    """The exit of a run stopped by a signal: one line on stderr; 143 for SIGTERM (``terminated``; also a SIGTERM
+    swallowed by a C callback and raised as KeyboardInterrupt at the run's next tick), 130 for Ctrl-C."""
+    if terminated:
+        print(f"wbc {command}: terminated (SIGTERM)", file=sys.stderr)
+        return 143
+    print(f"wbc {command}: interrupted (Ctrl-C); no output written for the unfinished step", file=sys.stderr)
+    return 130
 
 
 def check_args(args) -> None:
