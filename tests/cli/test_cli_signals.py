@@ -108,3 +108,24 @@ def test_a_signal_inside_a_compiled_kernel_call_ends_with_its_exit_code(monkeypa
     monkeypatch.setattr(cli, "check_args", other)
     with pytest.raises(SystemError, match="own error"):
         cli.main(["walk"])
+
+
+def test_a_system_error_after_a_ctrl_c_ends_with_130(monkeypatch, capsys):
+    """A SystemError that names no signal in its chain, raised after the run's SIGINT handler saw a Ctrl-C (the
+    handler's exception swallowed by a callback and another error left set): exit 130 and the one line."""
+    import signal as sig
+
+    import wbc.cli as cli
+    from wbc.cli import output
+
+    def kernel_call(args):
+        try:
+            output.on_sigint(sig.SIGINT, None)  # the run's handler: remembers the Ctrl-C, raises KeyboardInterrupt
+        except KeyboardInterrupt:
+            pass  # (swallowed, as by a C callback)
+        raise SystemError("CPUDispatcher(<function _tick_kernel>) returned a result with an exception set")
+
+    monkeypatch.setattr(cli, "check_args", kernel_call)
+    assert cli.main(["walk"]) == 130
+    assert capsys.readouterr().err.strip() == ("wbc walk: interrupted (Ctrl-C); no output written for the unfinished "
+                                               "step")

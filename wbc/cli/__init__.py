@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         run_sigint = signal.signal(signal.SIGINT, on_sigint)
         previous_unraisable = sys.unraisablehook
         sys.unraisablehook = quiet_swallowed_interrupt
-    from wbc.cli.output import Terminated, clear_sigint, on_sigterm, sigterm_received
+    from wbc.cli.output import Terminated, clear_sigint, on_sigterm, sigint_received, sigterm_received
 
     clear_sigint()
     try:
@@ -148,10 +148,14 @@ def main(argv: list[str] | None = None) -> int:
         return _stopped(args.command, isinstance(exc, Terminated) or sigterm_received())
     except SystemError as exc:
         # a Ctrl-C or SIGTERM whose handler ran inside a compiled kernel's call (numba's dispatcher returned a result
-        # with the handler's exception set): CPython raises SystemError from it
-        if not isinstance(exc.__cause__, (KeyboardInterrupt, Terminated)):
+        # with the handler's exception set): CPython raises SystemError from it, or from what it broke
+        chain, stop = exc, False
+        while chain is not None and not stop:
+            stop = isinstance(chain, (KeyboardInterrupt, Terminated))
+            chain = chain.__cause__ or chain.__context__
+        if not (stop or sigint_received() or sigterm_received()):
             raise
-        return _stopped(args.command, isinstance(exc.__cause__, Terminated) or sigterm_received())
+        return _stopped(args.command, sigterm_received() or isinstance(exc.__cause__, Terminated))
     except BrokenPipeError:  # `wbc ... | head`: the reader has gone; stop quietly
         _silence_stdout()
         return 0
