@@ -72,6 +72,7 @@ from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
 from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
+from wbc.sim.walk_landing import WalkLanding
 from wbc.sim.walk_support import WalkSupport
 
 __all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD"]
@@ -127,7 +128,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkLanding):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:
@@ -454,6 +455,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
+        self._setup_landing()  # (the landing gate, wbc.sim.walk_landing)
         # Views into self._data (eigenpy: they follow every update of it): the CoM and its velocity, and the soles'
         # rotation and translation (the placements updated in update)
         self._com_view, self._vcom_view = self._data.com[0], self._data.vcom[0]
@@ -648,6 +650,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                     vel[:] = 0.0
                     vel[2] = -self.descent_speed if self.descent_speed * late < drop else 0.0
                     acc[:] = 0.0
+                self._gate_landing(side, tf, kk, k_lift, k_td, q, v, pos, vel, acc)  # (wbc.sim.walk_landing)
                 if _squares_finite(pos, vel, acc):
                     controller.set_foot_reference_rows(side, rot_t, pos, vel, acc)
                 else:  # the validated setter raises its typed error
