@@ -619,6 +619,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkL
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
         sw.update(t, q, v, self.measured_normal_force, data)
+        self._impact_load(controller, tf)  # (a hard landing's load, wbc.sim.walk_landing)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
@@ -650,7 +651,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkL
                     vel[:] = 0.0
                     vel[2] = -self.descent_speed if self.descent_speed * late < drop else 0.0
                     acc[:] = 0.0
-                self._gate_landing(side, tf, kk, k_lift, k_td, q, v, pos, vel, acc)  # (wbc.sim.walk_landing)
                 if _squares_finite(pos, vel, acc):
                     controller.set_foot_reference_rows(side, rot_t, pos, vel, acc)
                 else:  # the validated setter raises its typed error
