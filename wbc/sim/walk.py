@@ -455,7 +455,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkL
         self._dz_lift = {"left": 0.0, "right": 0.0}
         self._dz_stance = {"left": 0.0, "right": 0.0}
         self._gdata = self._model.createData()
-        self._setup_landing()  # (the landing gate, wbc.sim.walk_landing)
         # Views into self._data (eigenpy: they follow every update of it): the CoM and its velocity, and the soles'
         # rotation and translation (the placements updated in update)
         self._com_view, self._vcom_view = self._data.com[0], self._data.vcom[0]
@@ -619,7 +618,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkL
         pin.updateFramePlacement(model, data, fid["left"])
         pin.updateFramePlacement(model, data, fid["right"])
         sw.update(t, q, v, self.measured_normal_force, data)
-        self._impact_load(controller, tf)  # (a hard landing's load, wbc.sim.walk_landing)
         for side, (_, k_lift, k_td, fs) in list(self._active.items()):
             ph = sw.phase(side)
             if ph == "swing":
