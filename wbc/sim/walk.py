@@ -128,7 +128,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents, WalkLanding):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkLanding, WalkContactEvents):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:
