@@ -27,7 +27,7 @@ __all__ = ["WalkLanding", "IMPACT_LOAD", "IMPACT_SHARE", "IMPACT_WINDOW_S"]
 #: Measured normal force of a landing sole, as a multiple of the robot's weight, above which a touch-down is an impact.
 IMPACT_LOAD = 1.0
 #: Share of the measured normal force the QP must plan on the landed sole after an impact.
-IMPACT_SHARE = 0.5
+IMPACT_SHARE = 0.7
 #: Time after the touch-down (s) over which the lower bound applies.
 IMPACT_WINDOW_S = 0.05
 
