@@ -28,6 +28,7 @@ class _Walk(WalkLanding):
         self._model, self.robot = robot.model, robot
         self.switcher = _Switcher()
         self.measured_normal_force = None
+        self.blind, self.terrain_walk = False, None
         self._setup_landing()
 
 
@@ -75,6 +76,9 @@ def test_a_landing_below_the_weight_changes_nothing(talos):
     walk.measured_normal_force = None  # ground-truth state: no force sensors, nothing to do
     walk._impact_load(ctrl, 2.004)
     assert ctrl.contacts["right"].f_min == 0.0
+    walk.blind, walk.measured_normal_force = True, np.array([500.0, 3.0 * walk._weight])  # a blind walk: not here
+    walk._impact_load(ctrl, 2.006)
+    assert ctrl.contacts["right"].f_min == 0.0 and walk.impact_landings == 0
 
 
 def test_a_new_touch_down_is_judged_anew(talos):

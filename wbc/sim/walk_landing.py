@@ -14,7 +14,8 @@ Here, from a touch-down whose measured normal force (ankle force/torque sensors:
 :data:`IMPACT_LOAD` × the robot's weight, for :data:`IMPACT_WINDOW_S` s after that touch-down, every corner of the
 landed sole gets the QP lower bound ``f_min`` = :data:`IMPACT_SHARE` × (measured normal force) / 4 (N; the sole's
 own ``f_min`` again afterwards). The torques then hold the leg against the load it has. A touch-down of a nominal
-walk reads a few hundred newtons: no impact, nothing changes.
+walk reads a few hundred newtons: no impact, nothing changes. Flat walks only: a walk on terrain or a blind one
+(their own landing handling: the stance sole's rebound hold, force-confirmed contacts) is left as it is.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ class WalkLanding:
     def _impact_load(self, controller, t: float) -> None:
         """Set or restore the landed soles' corner-force lower bounds for time ``t`` (s) (module docstring)."""
         force = self.measured_normal_force
-        if force is None:
+        if force is None or self.blind or self.terrain_walk is not None:
             return
         sw = self.switcher
         for i, side in enumerate(("left", "right")):
