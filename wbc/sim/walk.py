@@ -72,6 +72,7 @@ from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
 from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
+from wbc.sim.walk_landing import WalkLanding
 from wbc.sim.walk_support import WalkSupport
 
 __all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD"]
@@ -127,7 +128,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkLanding, WalkContactEvents):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:
