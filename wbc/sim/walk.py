@@ -72,7 +72,6 @@ from wbc.sim.physics_scenarios import contacts_rank_deficient
 from wbc.sim.walk_steps import WalkSteps
 from wbc.sim.walk_summary import WalkSummary
 from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
-from wbc.sim.walk_landing import WalkLanding
 from wbc.sim.walk_support import WalkSupport
 
 __all__ = ["WalkScenario", "TOUCHDOWN_CONFIRM_LOAD"]
@@ -128,7 +127,7 @@ SWING_HEIGHT_WEIGHT = 3.0
 SWING_FROUDE = 0.6
 
 
-class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkLanding, WalkContactEvents):
+class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
     """Walk ``n_steps`` with the ID controller (module docstring). Needs the ID controller.
 
     Args:

@@ -73,13 +73,6 @@ class WalkContactEvents:
         self._rebound_hold = {"left": None, "right": None}  # blind: (placement, t) of a stance sole released in the air
         #: blind: (t, sole) of each contact sole that left the ground under a planned load (:meth:`_await_rebound`)
         self.rebounds: list[tuple[float, str]] = []
-        self._setup_landing()  # (the load of a hard landing: wbc.sim.walk_landing)
-
-    def _setup_landing(self) -> None:
-        """Hook of a hard landing's load (:class:`~wbc.sim.walk_landing.WalkLanding` overrides it): nothing here."""
-
-    def _impact_load(self, controller, t: float) -> None:
-        """Hook of a hard landing's load, run first in every tick's :meth:`_follow_contacts`: nothing here."""
 
     def _await_rebound(self, t: float, controller) -> None:
         """Blind walk (always, not only with ``contact_events``): a sole the switcher holds as a contact whose
@@ -154,9 +147,7 @@ class WalkContactEvents:
     def _follow_contacts(self, t: float, controller, tp: float) -> None:
         """One tick of the events; release, cut or set down soles (module docstring); nothing when off (a blind
         walk's :meth:`_await_rebound` runs first, on or off). ``tp``: the plan clock (s; a swinging sole is planned
-        down once its planned touch-down has passed). First the hook of a hard landing's load
-        (:meth:`_impact_load`; a :class:`~wbc.sim.walk.WalkScenario`'s: :mod:`wbc.sim.walk_landing`)."""
-        self._impact_load(controller, t)
+        down once its planned touch-down has passed)."""
         if self.blind:
             self._await_rebound(t, controller)
         if self.contact_monitor is None:

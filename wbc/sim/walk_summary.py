@@ -165,7 +165,6 @@ class WalkSummary:
             "push_n": self.push, "push_time_s": self.push_time,
             "step_adjustments": len(self.adjustments),
             "support_cuts": self.support_cuts,
-            "impact_landings": self.impact_landings,
             "step_timing_changes_s": [m for _, _, m in self.timing_changes],
             "max_step_adjustment_m": max((math.hypot(a[2], a[3]) for a in self.adjustments), default=0.0),
             "adjusted_distance_m": float(np.linalg.norm(
