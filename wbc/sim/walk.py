@@ -229,6 +229,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
             ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
         contact_events: contacts following the measured contact events (:mod:`wbc.sim.walk_contacts`; default off).
+        hurry_double_support: with ``step_adjust`` and ``adjust_timing``: a swing that touches down with the measured
+            DCM outside both soles' hull (shrunk by ``cop_margin``) ends its double support at once, the next swing's
+            ramp-out starting at the touch-down (:meth:`WalkScenario._hurry_double_support`; default True).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -260,8 +263,12 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  stretch_min: float = 0.03, stretch_window: float = 0.2, zmp_feedback: float = 0.0,
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
-                 swing_froude: float | None = None, swing_height_weight: float | None = None):
+                 swing_froude: float | None = None, swing_height_weight: float | None = None,
+                 hurry_double_support: bool = True):
         from wbc.terrain import parse_terrain
+        if not isinstance(hurry_double_support, bool):
+            raise InvalidInputError(f"hurry_double_support must be True or False, got {hurry_double_support!r}")
+        self.hurry_double_support = hurry_double_support
         self.contact_thresholds = contact_events_option(contact_events)
         self.terrain = None if terrain is None else parse_terrain(terrain)
         if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
@@ -446,6 +453,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         #: the walk in this double support (:meth:`between_steps`), for the few ticks until the landed sole is loaded
         self.hold_next_swing = False
         self.timing_changes: list[tuple[float, str, float]] = []  # (t, side, s earlier)
+        self._landed = None  # the side whose swing touched down this tick (_swing_landed, _hurry_double_support)
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
         self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
@@ -586,26 +594,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         k = int(min(max(round(tf / plan.dt), 0), n_samples - 1)) if math.isfinite(tf) else plan.index(t)
         k = min(k + self._shift, n_samples - 1)
         tp = k * dt  # plan clock
-        # Start the ramp-out of the next swing so that the foot is released at the planned lift-off.
-        if self._next < len(self.swings):
-            side, k_lift, k_td, fs = self.swings[self._next]
-            other = "right" if side == "left" else "left"
-            # Never release a foot while the other one is not yet down (late touch-down: the step waits).
-            if tp >= k_lift * dt - self.ramp_time - 1e-9 and sw.phase(side) in ("stance", "loading") \
-                    and sw.phase(other) in ("stance", "loading") and not self.hold_next_swing:
-                sw.unload(side, t)
-                if self.terrain_walk is not None or self.blind:
-                    # touch-down is detected above the foothold's ground (blind: the planned flat ground)
-                    if self.terrain_walk is not None:
-                        self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
-                    sw.ground_height[side] = self._land_z[side]
-                    pin.framesForwardKinematics(self._model, self._gdata, q)
-                    self._dz_lift[side] = float(self._gdata.oMf[self._fid[side]].translation[2]) \
-                        - float(self.poses[side][k][2, 3])
-                    self._dz_stance[side] = self._dz_lift[side]
-                self._t_unload[side] = t
-                self._active[side] = self.swings[self._next]
-                self._next += 1
+        self._release_next_swing(t, tp, k, q)  # (its ramp-out, so that the foot is released at its lift-off)
         if self.terrain_walk is not None or self.blind:
             self._relative_ground(k, q)
         for side, (_, k_lift, k_td, fs) in self._active.items():
@@ -664,6 +653,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         cdx, cdy, _ = cd.tolist()
         xix, xiy = cx + cdx / w, cy + cdy / w
         xi = np.array([xix, xiy])
+        if self._landed is not None:
+            if self.step_adjust and self.adjust_timing and self.hurry_double_support:
+                self._hurry_double_support(t, k, c, cd, xi)
+            self._landed = None
         if self.step_adjust:
             self._adjust_step(t, k, c, cd, xi)
         lg_phase, lg_dcm, lg_dcm_ref, lg_cop, lg_xy, lg_yaw = self._log_rows
@@ -727,8 +720,3 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             a, b = r0[0, i], r0[1, i]
             rot_t[i, 0], rot_t[i, 1], rot_t[i, 2] = a * c - b * s, a * s + b * c, r0[2, i]
         controller.torso.task.set_target_rows(rot_t, pos)
-
-
-def fs_index(plan, k_lift: int) -> int:
-    """Index in ``plan.footsteps`` of the step whose swing lifts off at sample ``k_lift``."""
-    return next(ph.step for ph in plan.phases if ph.step >= 0 and ph.first == k_lift)

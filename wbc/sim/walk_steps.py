@@ -145,16 +145,9 @@ class WalkSteps:
             soles = {s: (self.poses[s].copy(), self.vels[s].copy(), self.acc[s].copy()) for s in ("left", "right")}
             self._pre_stretch = (self._rp, self._rp_k0, list(self.swings), soles, self.ref_dcm.copy(),
                                  self.ref_zmp.copy(), self._shift, self._base, len(self.adjustments))
-        self._rp, self._rp_k0 = rp, k1
+        self._adopt_plan(rp, k1)
         for (i, sw), f in zip(remaining, new):
             self.swings[i] = (sw[0], sw[1], sw[2], f)
-        n = rp.n_samples
-        for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
-            self.poses[s][k1:k1 + n] = P
-            self.vels[s][k1:k1 + n] = V
-            self.acc[s][k1:k1 + n] = np.gradient(V, self.dt, axis=0)
-        self.ref_dcm[k1:k1 + n] = rp.dcm
-        self.ref_zmp[k1:k1 + n] = rp.zmp
         if skip:
             self._shift += skip
             if skip > 0:
@@ -167,6 +160,18 @@ class WalkSteps:
             self._base = (idx, target, self.ref_dcm.copy())  # later corrections: against the new plan
             self.timing_changes.append((float(t), side, skip * self.dt))
         self.adjustments.append((float(t), side, float(target.x - fs0.x), float(target.y - fs0.y)))
+
+    def _adopt_plan(self, rp, k1: int) -> None:
+        """Make the re-planned walk ``rp`` (:meth:`wbc.gait.WalkPlan.replan`, its sample 0 at plan sample ``k1``)
+        the plan: the soles' poses, velocities and accelerations and the DCM and ZMP references from ``k1`` on."""
+        self._rp, self._rp_k0 = rp, k1
+        n = rp.n_samples
+        for s, P, V in (("left", rp.left_sole, rp.left_sole_vel), ("right", rp.right_sole, rp.right_sole_vel)):
+            self.poses[s][k1:k1 + n] = P
+            self.vels[s][k1:k1 + n] = V
+            self.acc[s][k1:k1 + n] = np.gradient(V, self.dt, axis=0)
+        self.ref_dcm[k1:k1 + n] = rp.dcm
+        self.ref_zmp[k1:k1 + n] = rp.zmp
 
     def _step_timing(self, idx, k, xi, stance, foot, target, descent):
         """(landing, samples to cut) of the swing ``idx`` at plan sample ``k`` from the step timing QP
@@ -240,6 +245,7 @@ class WalkSteps:
         it never reached, and the other foot's swing then started with the DCM beyond the landed sole, which it
         cannot cross to capture (record 52)."""
         del self._active[side]
+        self._landed = side
         relift, pre = self._relift, self._pre_stretch
         if relift is None or pre is None or relift[0] != side or 2 * k >= relift[1] + relift[2]:
             return
@@ -252,6 +258,62 @@ class WalkSteps:
         self._shift = shift
         del self.adjustments[n_adj:]
         self._relift = self._pre_stretch = None
+
+    def _release_next_swing(self, t: float, tp: float, k: int, q: np.ndarray) -> None:
+        """Start the ramp-out of the next swing (``_next``) at plan time ``tp`` (s; plan sample ``k``, configuration
+        ``q``) so that its foot is released at the planned lift-off, never while the other foot is not yet down (a
+        late touch-down: the step waits) nor while ``hold_next_swing``; on terrain or blind, the ground height its
+        touch-down is detected above and the sole's measured − planned height at its release (``_relative_ground``)."""
+        if self._next < len(self.swings):
+            side, k_lift, k_td, fs = self.swings[self._next]
+            other = "right" if side == "left" else "left"
+            # Never release a foot while the other one is not yet down (late touch-down: the step waits).
+            if tp >= k_lift * self.dt - self.ramp_time - 1e-9 and self.switcher.phase(side) in ("stance", "loading") \
+                    and self.switcher.phase(other) in ("stance", "loading") and not self.hold_next_swing:
+                self.switcher.unload(side, t)
+                if self.terrain_walk is not None or self.blind:
+                    # touch-down is detected above the foothold's ground (blind: the planned flat ground)
+                    if self.terrain_walk is not None:
+                        self._land_z[side] = float(self.terrain_walk.footholds[fs_index(self.plan, k_lift)][2, 3])
+                    self.switcher.ground_height[side] = self._land_z[side]
+                    pin.framesForwardKinematics(self._model, self._gdata, q)
+                    self._dz_lift[side] = float(self._gdata.oMf[self._fid[side]].translation[2]) \
+                        - float(self.poses[side][k][2, 3])
+                    self._dz_stance[side] = self._dz_lift[side]
+                self._t_unload[side] = t
+                self._active[side] = self.swings[self._next]
+                self._next += 1
+
+    def _hurry_double_support(self, t: float, k: int, c, cd, xi: np.ndarray) -> None:
+        """At the touch-down of a swing (``_landed``), with timing adaptation on: when the measured DCM ``xi`` (2,) m
+        lies outside both soles' hull shrunk by the CoP margin, no CoP of the double support stops its divergence
+        (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6): the rest of the double support only lets it grow, and the
+        next step is what can capture it (a lateral push towards the stance leg: two quick steps, the first
+        landing foot cannot cross). The plan clock then jumps (``_shift``) to the next swing's ramp-out, which
+        starts now: the double support lasts the ``ramp_time`` of that ramp. The plan is re-planned from the
+        measured CoM state at the new sample (:meth:`wbc.gait.WalkPlan.replan`, footsteps unchanged), and the jump
+        is logged in ``timing_changes``."""
+        if self._next >= len(self.swings):
+            return
+        side, k_lift, _, _ = self.swings[self._next]
+        r = self.robot
+        m = self.cop_margin
+        soles = np.vstack([projected_sole_corners(self._data.oMf[self._fid[s]], r.sole_length - 2 * m,
+                                                  r.sole_width - 2 * m) for s in ("left", "right")])
+        if polygon_margin(np.asarray(xi, float), convex_hull(soles)) >= 0.0:
+            return
+        n = k_lift - int(round(self.ramp_time / self.dt)) - k
+        if n <= 0:
+            return
+        k1 = k + n
+        try:
+            rp = self._rp.replan(k1 - self._rp_k0, np.asarray(c), np.asarray(cd), check_start=False)
+        except GaitError:
+            self.replan_failures += 1
+            return
+        self._adopt_plan(rp, k1)
+        self._shift += n
+        self.timing_changes.append((float(t), side, n * self.dt))
 
     def _capturable(self, xi: np.ndarray, stance: str) -> bool:
         """True when the measured DCM lies inside the ``stance`` sole shrunk by the CoP margin: with the CoP at the
@@ -291,3 +353,8 @@ class WalkSteps:
         pos[2] += h * 64.0 * u * u * u
         vel[2] += h * 192.0 * u * u * (1.0 - 2.0 * s) / T
         acc[2] += h * 384.0 * u * (1.0 - 5.0 * s + 5.0 * s * s) / (T * T)
+
+
+def fs_index(plan, k_lift: int) -> int:
+    """Index in ``plan.footsteps`` of the step whose swing lifts off at sample ``k_lift``."""
+    return next(ph.step for ph in plan.phases if ph.step >= 0 and ph.first == k_lift)
