@@ -139,7 +139,7 @@ def format_report(table, factors=None) -> str:
     if factors is None:
         factors = [f for f in ("force", "direction_deg", "phase", "mass_error", "friction", "armature", "delay",
                                "q_noise_deg", "v_noise", "payload", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
-                               "adjust_dead_band") if f in table.column_names]
+                               "adjust_dead_band", "impact_window") if f in table.column_names]
     for f in factors:
         rows = factor_table(table, f)
         if len({(r["lo"], r["hi"]) for r in rows}) <= 1:
@@ -556,7 +556,7 @@ def varies_param(name: str) -> bool:
     """Columns that are trial parameters, not measured metrics."""
     return name in {"force", "direction_deg", "phase", "push_duration", "mass_error", "payload", "friction",
                     "armature", "delay", "q_noise_deg", "v_noise", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
-                    "adjust_dead_band"}
+                    "adjust_dead_band", "impact_window"}
 
 
 def _numeric(v) -> bool:

@@ -74,7 +74,7 @@ FACTOR_KEYS = {
 
 #: Sweepable options: DCM stabilizer gains (``wbc.gait.stabilizer.DcmStabilizer``) and walk options.
 SWEEP_KEYS = {"k_xi": (0.0, 50.0), "k_i": (0.0, 50.0), "k_z": (0.0, 10.0), "cop_margin": (0.0, 0.05),
-              "cmp_offset": (0.0, 0.1), "adjust_dead_band": (0.0, 0.2)}
+              "cmp_offset": (0.0, 0.1), "adjust_dead_band": (0.0, 0.2), "impact_window": (0.0, 0.2)}
 
 _DEFAULT_FACTORS = {
     "push": {"force": [300.0, 500.0], "direction_deg": [0.0, 360.0], "phase": [0.0, 1.0], "push_duration": 0.1},

@@ -116,7 +116,7 @@ def walk_trial(spec, params: dict) -> dict:
     t_walk = max(0.0, (sc["steps"] - 1) * sc["step_duration"] - duration)
     push_time = _T_INIT + float(params.get("phase", 0.0)) * t_walk
     gains = {k: params[k] for k in ("k_xi", "k_i") if k in params}
-    walk_kw = {k: params[k] for k in ("cop_margin", "cmp_offset", "adjust_dead_band") if k in params}
+    walk_kw = {k: params[k] for k in ("cop_margin", "cmp_offset", "adjust_dead_band", "impact_window") if k in params}
     estimated = sc["state"] == "estimated"
     zmp = sc["zmp_feedback"] if sc["zmp_feedback"] is not None else (0.5 if estimated else 0.0)  # wbc sim walk's
     walk_kw["zmp_feedback"] = params.get("k_z", zmp)  # the stabilizer's measured-ZMP feedback gain

@@ -61,7 +61,7 @@ import pinocchio as pin
 from wbc.compiled import once_per_process
 from wbc.dynamics.contact_switching import ContactSwitcher
 from wbc.exceptions import GaitError, InvalidInputError
-from wbc.geometry import FLOAT64, mean_heading
+from wbc.geometry import FLOAT64, check_flag, check_scalar, mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
 from wbc.gait.commands import feet_can_yaw
@@ -232,6 +232,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         hurry_double_support: with ``step_adjust`` and ``adjust_timing``: a swing that touches down with the measured
             DCM outside both soles' hull (shrunk by ``cop_margin``) ends its double support at once, the next swing's
             ramp-out starting at the touch-down (:meth:`WalkScenario._hurry_double_support`; default True).
+        impact_window: s before a swing's planned touch-down (and after it, while the sole is in swing) in which
+            the ID controller bounds the leg joints' speeds after the impact of that sole, flat or on a corner
+            (:class:`wbc.constraints.impact.ImpactSpeedBounds`, added to its QP at :meth:`setup`); 0: off.
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -264,11 +267,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
                  swing_froude: float | None = None, swing_height_weight: float | None = None,
-                 hurry_double_support: bool = True):
+                 hurry_double_support: bool = True, impact_window: float = 0.04):
         from wbc.terrain import parse_terrain
-        if not isinstance(hurry_double_support, bool):
-            raise InvalidInputError(f"hurry_double_support must be True or False, got {hurry_double_support!r}")
-        self.hurry_double_support = hurry_double_support
+        self.hurry_double_support = check_flag(hurry_double_support, "hurry_double_support")
+        self.impact_window = check_scalar(impact_window, "impact_window", "s")
         self.contact_thresholds = contact_events_option(contact_events)
         self.terrain = None if terrain is None else parse_terrain(terrain)
         if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
@@ -372,6 +374,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                 foot.weight = w
         self.com0 = pin.centerOfMass(robot.model, robot.model.createData(), q).copy()
         self.robot = robot
+        self._impact_setup(controller, robot)
         self.dt = sim.timestep
         self._model = robot.model
         self._data = robot.model.createData()
@@ -644,6 +647,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             elif ph in ("loading", "stance") and side in self._active and sw.touchdown_time[side] is not None \
                     and sw.touchdown_time[side] > self._t_unload[side]:
                 self._swing_landed(side, tf, k)  # (a stretch undone when the sole never rose again)
+        self._impact_expect(tp)
         if self._torso_turn is not None:
             self._turn_torso(controller, k)
         self._follow_contacts(tf, controller, tp)  # (opt-in: the contacts follow the measured contact events)

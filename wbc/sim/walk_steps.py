@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbc.constraints.impact import ImpactSpeedBounds
 from wbc.exceptions import GaitError
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
@@ -220,6 +221,45 @@ class WalkSteps:
             return target, 0
         moved = Footstep(fs0.side, float(sol.landing[0]), float(sol.landing[1]), fs0.yaw)
         return self.adjuster.landing(moved, stance, np.zeros(2)), skip
+
+    _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
+
+    def _impact_setup(self, controller, robot) -> None:
+        """With ``impact_window`` > 0 and an ID controller with joint speed bounds: add
+        :class:`~wbc.constraints.impact.ImpactSpeedBounds` (flat sole and its corners) to its QP, with the margins
+        and the horizon of its joint speed bounds — or take the one already there (a capture step's walk on the
+        same controller)."""
+        qp = getattr(controller, "qp", None)
+        if self.impact_window <= 0 or qp is None or getattr(qp, "joint_speed_limits", None) is None:
+            return
+        for con in qp.extra_constraints:
+            if isinstance(con, ImpactSpeedBounds):
+                self._impact = con
+                return
+        js = qp.joint_speed_limits
+        lim = np.asarray(robot.model.velocityLimit, dtype=float)[6:]
+        margin = np.zeros(robot.model.nv - 6)
+        margin[js.indices - 6] = 1.0 - js.vmax / lim[js.indices - 6]
+        self._impact = ImpactSpeedBounds(robot, {"left": robot.left_sole, "right": robot.right_sole},
+                                         np.clip(margin, 0.0, 0.99), js.horizon, corners=True)
+        qp.add_constraint(self._impact)
+
+    def _impact_expect(self, tp: float) -> None:
+        """Tell the impact bounds (:meth:`_impact_setup`) which sole may touch down at plan time ``tp`` (s): a sole
+        in swing within ``impact_window`` s of its planned touch-down or past it, the other sole down (stance or
+        loading) or not; else none."""
+        c = self._impact
+        if c is None:
+            return
+        landing = None
+        for side, (_, _, k_td, _) in self._active.items():
+            if self.switcher.phase(side) == "swing" and tp >= k_td * self.dt - self.impact_window:
+                landing = side
+        if landing is None:
+            c.expect(None)
+            return
+        other = "right" if landing == "left" else "left"
+        c.expect(landing, (other,) if self.switcher.phase(other) in ("stance", "loading") else ())
 
     def _stretch(self, idx, fs, fs0, stance, corr, target, foot, xi, xi_ref, time_left) -> int:
         """Samples by which to lengthen the swing ``idx`` in progress (0: none): in the last ``stretch_window`` s of
