@@ -35,7 +35,8 @@ Modules: :mod:`~wbc.constraints.floating_base`, :mod:`~wbc.constraints.contact_a
 :mod:`~wbc.constraints.barrier`, :mod:`~wbc.constraints.joint_velocity` (joint speed bounds, kept in the relaxed
 solve). Added by the user (``InverseDynamicsQP.add_constraint``, exported here): a bound on the centroidal angular
 momentum rate, |L̇| ≤ L̇_max (:mod:`~wbc.constraints.momentum_rate`, relaxable); a bound on a frame origin's linear
-acceleration, |p̈| ≤ a_max (:mod:`~wbc.constraints.frame_acceleration`, relaxable). *Relaxable* constraints are the
+acceleration, |p̈| ≤ a_max (:mod:`~wbc.constraints.frame_acceleration`, relaxable); the legs' joint speeds after
+the impact of a sole about to touch down (:mod:`~wbc.constraints.impact`, relaxable). *Relaxable* constraints are the
 ones a controller drops when the full QP is infeasible (kinematic: ``TickResult.relaxed``; inverse dynamics:
 :meth:`~wbc.formulations.acceleration.InverseDynamicsQP.solve_relaxed`).
 """
@@ -45,6 +46,7 @@ from wbc.constraints.base import BoxConstraint, Constraint, EqualityConstraint, 
 from wbc.constraints.com_polygon import ComPolygonConstraint
 from wbc.constraints.contact import ContactConstraint
 from wbc.constraints.frame_acceleration import FrameAccelerationBound
+from wbc.constraints.impact import ImpactSpeedBounds
 from wbc.constraints.limits import JointPositionLimit, JointVelocityLimit
 from wbc.constraints.momentum_rate import AngularMomentumRateBound
 from wbc.constraints.self_collision import SelfCollisionConstraint
@@ -52,6 +54,6 @@ from wbc.constraints.task import TaskConstraint
 
 __all__ = [
     "AngularMomentumRateBound", "BoxConstraint", "Constraint", "EqualityConstraint", "InequalityConstraint",
-    "ComPolygonConstraint", "ContactConstraint", "FrameAccelerationBound", "JointAccelerationLimit",
-    "JointPositionLimit", "JointVelocityLimit", "SelfCollisionConstraint", "TaskConstraint",
+    "ComPolygonConstraint", "ContactConstraint", "FrameAccelerationBound", "ImpactSpeedBounds",
+    "JointAccelerationLimit", "JointPositionLimit", "JointVelocityLimit", "SelfCollisionConstraint", "TaskConstraint",
 ]

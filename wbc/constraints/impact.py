@@ -91,6 +91,7 @@ class ImpactSpeedBounds(IDConstraint):
         self.corners = np.array([[sx * robot.sole_length / 2, sy * robot.sole_width / 2, 0.0]
                                  for sx in (1, -1) for sy in (1, -1)]) if corners else np.zeros((0, 3))
         self.dim = self.n_joints * (1 + len(self.corners))
+        self._vmax_rows = np.tile(self.vmax, 1 + len(self.corners))  # s q̇_max of every row
         self._landing: str | None = None
         self._support: tuple[str, ...] = ()
 
@@ -157,8 +158,7 @@ class ImpactSpeedBounds(IDConstraint):
         hdt = self.horizon * ctx.dt
         C[:, :ctx.nv] = P
         C[:, ctx.nv:] = 0.0
-        vmax = np.tile(self.vmax, 1 + len(self.corners))
-        np.divide(-vmax - post, hdt, out=l)
-        np.divide(vmax - post, hdt, out=u)
+        np.divide(-self._vmax_rows - post, hdt, out=l)
+        np.divide(self._vmax_rows - post, hdt, out=u)
         past = (l > 0.0) | (u < 0.0)  # a post-impact rate already past its bound at v̇ = 0: the row is freed
         l[past], u[past] = -np.inf, np.inf
