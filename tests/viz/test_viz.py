@@ -226,9 +226,13 @@ def test_recording_renders_offline_in_chromium(talos, motion, recording, tmp_pat
             assert page.evaluate(count_js) == n_meshes
             # The ground: meshcat's /Grid hidden, our slab's top face at z = 0 (meshcat world) under the feet.
             assert page.evaluate("() => viewer.scene_tree.find(['Grid']).object.visible") is False
+            # (world matrices brought up to date first: three.js updates them when it renders, and under load the
+            # page may not have rendered since the slab's transform was set — CI read z = 0 once)
             slab = np.array(page.evaluate(
-                "() => viewer.scene_tree.find(['meshcat', 'floor', 'plane']).object"
-                ".matrixWorld.clone().premultiply(viewer.scene.matrixWorld.clone().invert()).elements")).reshape(4, 4).T
+                "() => { viewer.scene.updateMatrixWorld(true);"
+                " return viewer.scene_tree.find(['meshcat', 'floor', 'plane']).object"
+                ".matrixWorld.clone().premultiply(viewer.scene.matrixWorld.clone().invert()).elements; }")
+            ).reshape(4, 4).T
             assert slab[2, 3] == pytest.approx(-0.001, abs=1e-9)  # 2 mm thick slab: top at z = 0
             assert page.evaluate("() => !!document.getElementById('wbc-legend')")
             # Freeze the animation on a key frame; read what three.js will draw for mirrored meshes.
