@@ -11,7 +11,7 @@ from scipy.spatial import ConvexHull
 
 from wbc.exceptions import ConfigurationError, GaitError, InvalidInputError, InvalidTargetError
 from wbc.geometry import (
-    as_se3, check_vector, convex_hull, hull, mean_heading, signed_distance, signed_distance_point, sole_corners,
+    as_se3, check_scalar, check_vector, convex_hull, hull, mean_heading, signed_distance, signed_distance_point, sole_corners,
     sole_polygon, support_corners, support_polygon, yaw_of,
 )
 
@@ -82,6 +82,15 @@ def test_checks_raise_typed_errors():
         as_se3(np.diag([1.0, 1.0, -1.0, 1.0]))
     M = as_se3(np.eye(4))
     assert isinstance(M, pin.SE3) and as_se3(M) is M
+
+
+def test_a_scalar_check_takes_numbers_only():
+    assert check_scalar(np.float32(0.5), "x", "m") == 0.5 and check_scalar(2, "x", "m") == 2.0
+    for bad in ("0.04", b"1", True, None, math.nan, math.inf, -1e-12, [0.1]):
+        with pytest.raises(InvalidInputError, match="x must be finite"):
+            check_scalar(bad, "x", "m")
+    with pytest.raises(InvalidInputError, match="> 0"):
+        check_scalar(0.0, "x", "m", strict=True)
 
 
 def test_a_read_only_attribute_returns_its_store_and_refuses_assignment():

@@ -65,12 +65,12 @@ def check_vector(x, size: int, what: str, error=ConfigurationError) -> np.ndarra
 def check_scalar(x, what: str, unit: str, *, minimum: float = 0.0, strict: bool = False,
                  error=InvalidInputError) -> float:
     """Return ``x`` as a float if it is finite and ≥ ``minimum`` (> with ``strict``), else raise ``error``
-    ("<what> must be finite and ≥ <minimum> (<unit>), got <x>"); a bool is refused."""
+    ("<what> must be finite and ≥ <minimum> (<unit>), got <x>"); a bool or a string (even "0.5") is refused."""
     try:
         v = float(x)
     except (TypeError, ValueError):
         v = math.nan
-    if isinstance(x, bool) or not math.isfinite(v) or v < minimum or (strict and v == minimum):
+    if isinstance(x, (bool, str, bytes)) or not math.isfinite(v) or v < minimum or (strict and v == minimum):
         raise error(f"{what} must be finite and {'>' if strict else '≥'} {minimum:g} ({unit}), got {x!r}")
     return v
 

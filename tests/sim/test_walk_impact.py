@@ -43,6 +43,6 @@ def test_the_bounds_keep_the_landing_leg_within_its_speed_limits(trial_160):
 
 
 def test_impact_window_must_be_a_duration():
-    for bad in (-0.01, float("nan"), True, None):
+    for bad in (-0.01, float("nan"), True, None, "0.04"):
         with pytest.raises(InvalidInputError, match="impact_window"):
             WalkScenario(4, impact_window=bad)
