@@ -10,6 +10,7 @@ are written here, not read from the code under test.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from wbc.campaign.spec import load_spec
@@ -46,3 +47,22 @@ def test_impact_window_must_be_a_duration():
     for bad in (-0.01, float("nan"), True, None, "0.04"):
         with pytest.raises(InvalidInputError, match="impact_window"):
             WalkScenario(4, impact_window=bad)
+
+
+def test_a_walk_without_the_bounds_frees_those_an_earlier_walk_left_on_the_controller():
+    from wbc.constraints.impact import ImpactSpeedBounds
+    from wbc.robot import load_robot
+    from wbc.sim.mujoco_model import build_mujoco_model
+    from wbc.sim.scenarios import make_controller
+
+    robot = load_robot("talos")
+    sim = build_mujoco_model(robot)
+    controller = make_controller(robot, "id", dt=sim.timestep)
+    q, v = robot.q_ref.copy(), np.zeros(robot.model.nv)
+    WalkScenario(4).setup(controller, sim, q, v)
+    (con,) = [c for c in controller.qp.extra_constraints if isinstance(c, ImpactSpeedBounds)]
+    con.expect("left", ("right",))  # as a walk leaves it mid-swing
+    again = WalkScenario(4, impact_window=0.0)
+    again.setup(controller, sim, q, v)
+    assert con.landing is None
+    assert [c for c in controller.qp.extra_constraints if isinstance(c, ImpactSpeedBounds)] == [con]

@@ -228,14 +228,17 @@ class WalkSteps:
         """With ``impact_window`` > 0 and an ID controller with joint speed bounds: add
         :class:`~wbc.constraints.impact.ImpactSpeedBounds` (flat sole and its corners) to its QP, with the margins
         and the horizon of its joint speed bounds — or take the one already there (a capture step's walk on the
-        same controller)."""
+        same controller; with ``impact_window`` 0 that one's rows are set free and stay free)."""
         qp = getattr(controller, "qp", None)
-        if self.impact_window <= 0 or qp is None or getattr(qp, "joint_speed_limits", None) is None:
+        if qp is None or getattr(qp, "joint_speed_limits", None) is None:
             return
         for con in qp.extra_constraints:
             if isinstance(con, ImpactSpeedBounds):
-                self._impact = con
+                con.expect(None)  # (an earlier walk's landing is not this one's)
+                self._impact = con if self.impact_window > 0 else None
                 return
+        if self.impact_window <= 0:
+            return
         js = qp.joint_speed_limits
         lim = np.asarray(robot.model.velocityLimit, dtype=float)[6:]
         margin = np.zeros(robot.model.nv - 6)
