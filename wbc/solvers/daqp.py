@@ -106,7 +106,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         :data:`WORK_LIMIT_FACTOR` × ``cap`` (``reserve`` and one solve for the call held back); with a finite
         ``deadline`` also at most the iterations that fit before it. At least :data:`MIN_CALL_ITERATIONS` under
         either."""
-        limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
+        limit = int(self.settings["iter_limit"])
         if self.call_iterations is not None:
             limit = min(limit, int(self.call_iterations))
         work = self.work
@@ -116,7 +116,7 @@ class DaqpBackend(QPBackend, role="daqp"):
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
         if self.deadline < math.inf:
             left = (self.deadline - thread_time()) / max(self.iteration_cost, self.measured_iteration_cost)
-            limit = min(limit, MIN_CALL_ITERATIONS if left < MIN_CALL_ITERATIONS else int(min(left, limit)))
+            limit = min(limit, int(max(MIN_CALL_ITERATIONS, left)))
         return limit
 
     def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
@@ -130,7 +130,7 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _timed(self, call, limit: int, note: bool = True) -> tuple:
         """``call()`` (a DAQP solve of iteration limit ``limit``), its iterations (``last_iterations``) and proximal
-        iterations counted, its stop noted unless ``note`` is False (:meth:`_note_exit`); under a deadline its CPU time
+        iterations counted, its stop by a lowered limit noted unless ``note`` is False; under a deadline its CPU time
         per iteration updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at
         it). (x, or None when DAQP found none; DAQP's exit flag; its info dict)."""
         timed = self.deadline != math.inf
@@ -143,17 +143,13 @@ class DaqpBackend(QPBackend, role="daqp"):
             self.measured_iteration_cost = (cost if cost > self.measured_iteration_cost
                                             else MEASURED_COST_DECAY * self.measured_iteration_cost)
         self.last_iterations += iterations
-        if note:
-            self._note_exit(exitflag, limit)
-        return (x if exitflag >= 1 else None), exitflag, info
-
-    def _note_exit(self, exitflag: int, limit: int) -> None:
-        """A call stopped by a lowered limit: ``iterations_capped`` (``call_iterations``), else ``budget_capped``."""
-        if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
+        if note and exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings["iter_limit"]):
+            # stopped by a lowered limit: call_iterations' (iterations_capped), else the tick work's or deadline's
             if self.call_iterations is not None and limit == int(self.call_iterations):
                 self.iterations_capped = True
             else:
                 self.budget_capped = True
+        return (x if exitflag >= 1 else None), exitflag, info
 
     def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
         """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
