@@ -180,11 +180,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         tried_oneshot = self._oneshot_first and self.cold_retry
         if tried_oneshot:  # the last solve's workspace failed where the one-shot call succeeded: that first
             x = self._solve_oneshot(H, g)
-            if x is not None:
+            if x is not None or self.budget_capped:
                 return x
-            self._oneshot_first = False
-            if self.budget_capped:
-                return None
         if self._model is not None:  # warm-started
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
@@ -195,24 +192,20 @@ class DaqpBackend(QPBackend, role="daqp"):
             if x is not None:
                 self.last_multipliers = info["lam"]
                 return x
-            if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit); next solve cold
-                self._model = None
+            self._model = None  # failed: the cold paths below, or the next solve's
+            if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit)
                 return None
             if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
                 # the workspace cycled to its iteration limit: the one-shot call, the cold workspace only after it
-                self._model = None
                 x = self._solve_oneshot(H, g)
-                if x is not None:
-                    self._oneshot_first = self._cold_ran = True
+                self._cold_ran = x is not None
+                if x is not None or self.budget_capped:
                     return x
-                if self.budget_capped:
-                    return None
                 tried_oneshot = True
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         limit = self.call_limit()
         model.settings = {**self.settings, "iter_limit": limit}
-        self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, info = self._timed(model.solve, limit)
             if x is not None:
@@ -228,14 +221,14 @@ class DaqpBackend(QPBackend, role="daqp"):
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
-        x = self._solve_oneshot(H, g)
-        self._oneshot_first = x is not None
-        return x
+        return self._solve_oneshot(H, g)
 
     def _solve_oneshot(self, H, g):
-        """:meth:`_oneshot`, counted, its multipliers kept: x or None."""
+        """:meth:`_oneshot`, counted, its multipliers kept; the next solve starts with it when it succeeded (else
+        not): x or None."""
         x, info = self._oneshot(H, g)
         self.last_multipliers = None if x is None else info["lam"]
+        self._oneshot_first = x is not None
         return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):
