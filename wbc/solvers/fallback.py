@@ -400,14 +400,13 @@ class FallbackChain:
     def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None) -> bool:
         """The hard-set checks of a failed full QP after the full set's (its verdict ``full``, :meth:`_set_check`): the
         relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a point."""
-        _, _, A, b, C, l, u, lb, ub = qp
         if full is True:
             self.hard_set_point = True
             return True
         self.last_set_empty = full is False
         if relax is not None and self._left("FAILURE") >= MIN_CALL_ITERATIONS:
-            self.relaxed_bounds = relax(l, u, lb, ub)  # the caller's relaxed QP of this tick reuses them
-            self.relaxed_set_feasible = self._set_check(A, b, C, *self.relaxed_bounds, "FAILURE")
+            self.relaxed_bounds = relax(qp.l, qp.u, qp.lb, qp.ub)  # the caller's relaxed QP of this tick reuses them
+            self.relaxed_set_feasible = self._set_check(qp.A, qp.b, qp.C, *self.relaxed_bounds, "FAILURE")
             self._relaxed_check_final = self._check_final
             if self.relaxed_set_feasible is False:
                 self.last_set_empty = True
