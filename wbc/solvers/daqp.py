@@ -106,7 +106,7 @@ class DaqpBackend(QPBackend, role="daqp"):
         :data:`WORK_LIMIT_FACTOR` × ``cap`` (``reserve`` and one solve for the call held back); with a finite
         ``deadline`` also at most the iterations that fit before it. At least :data:`MIN_CALL_ITERATIONS` under
         either."""
-        limit = int(self.settings.get("iter_limit", ITERATION_LIMIT))
+        limit = int(self.settings["iter_limit"])
         if self.call_iterations is not None:
             limit = min(limit, int(self.call_iterations))
         work = self.work
@@ -116,7 +116,7 @@ class DaqpBackend(QPBackend, role="daqp"):
             limit = min(limit, max(MIN_CALL_ITERATIONS, int(left)))
         if self.deadline < math.inf:
             left = (self.deadline - thread_time()) / max(self.iteration_cost, self.measured_iteration_cost)
-            limit = min(limit, MIN_CALL_ITERATIONS if left < MIN_CALL_ITERATIONS else int(min(left, limit)))
+            limit = min(limit, int(max(MIN_CALL_ITERATIONS, left)))
         return limit
 
     def _oneshot(self, H, g, note: bool = True, **extra) -> tuple:
@@ -130,7 +130,7 @@ class DaqpBackend(QPBackend, role="daqp"):
 
     def _timed(self, call, limit: int, note: bool = True) -> tuple:
         """``call()`` (a DAQP solve of iteration limit ``limit``), its iterations (``last_iterations``) and proximal
-        iterations counted, its stop noted unless ``note`` is False (:meth:`_note_exit`); under a deadline its CPU time
+        iterations counted, its stop by a lowered limit noted unless ``note`` is False; under a deadline its CPU time
         per iteration updates ``measured_iteration_cost`` (it varies several-fold on one QP: later calls are sized at
         it). (x, or None when DAQP found none; DAQP's exit flag; its info dict)."""
         timed = self.deadline != math.inf
@@ -143,17 +143,13 @@ class DaqpBackend(QPBackend, role="daqp"):
             self.measured_iteration_cost = (cost if cost > self.measured_iteration_cost
                                             else MEASURED_COST_DECAY * self.measured_iteration_cost)
         self.last_iterations += iterations
-        if note:
-            self._note_exit(exitflag, limit)
-        return (x if exitflag >= 1 else None), exitflag, info
-
-    def _note_exit(self, exitflag: int, limit: int) -> None:
-        """A call stopped by a lowered limit: ``iterations_capped`` (``call_iterations``), else ``budget_capped``."""
-        if exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings.get("iter_limit", ITERATION_LIMIT)):
+        if note and exitflag == _DAQP_ITERATION_LIMIT and limit < int(self.settings["iter_limit"]):
+            # stopped by a lowered limit: call_iterations' (iterations_capped), else the tick work's or deadline's
             if self.call_iterations is not None and limit == int(self.call_iterations):
                 self.iterations_capped = True
             else:
                 self.budget_capped = True
+        return (x if exitflag >= 1 else None), exitflag, info
 
     def _daqp_form(self, A, b, C, l, u, lb, ub) -> tuple:
         """(G, upper, lower) of DAQP's form of the QP's constraints, in the buffers of this size."""
@@ -184,11 +180,8 @@ class DaqpBackend(QPBackend, role="daqp"):
         tried_oneshot = self._oneshot_first and self.cold_retry
         if tried_oneshot:  # the last solve's workspace failed where the one-shot call succeeded: that first
             x = self._solve_oneshot(H, g)
-            if x is not None:
+            if x is not None or self.budget_capped:
                 return x
-            self._oneshot_first = False
-            if self.budget_capped:
-                return None
         if self._model is not None:  # warm-started
             self._model.update(H=H, f=g, A=G, bupper=upper, blower=lower)
             limit = self.call_limit()
@@ -199,24 +192,20 @@ class DaqpBackend(QPBackend, role="daqp"):
             if x is not None:
                 self.last_multipliers = info["lam"]
                 return x
-            if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit); next solve cold
-                self._model = None
+            self._model = None  # failed: the cold paths below, or the next solve's
+            if not self.cold_retry or self.budget_capped:  # one call (a trial, or the work limit)
                 return None
             if exitflag == _DAQP_ITERATION_LIMIT and not (tried_oneshot or self.iterations_capped):
                 # the workspace cycled to its iteration limit: the one-shot call, the cold workspace only after it
-                self._model = None
                 x = self._solve_oneshot(H, g)
-                if x is not None:
-                    self._oneshot_first = self._cold_ran = True
+                self._cold_ran = x is not None
+                if x is not None or self.budget_capped:
                     return x
-                if self.budget_capped:
-                    return None
                 tried_oneshot = True
         # first solve of this size, or the warm-started one failed: fresh workspace (cold start)
         model = self._daqp.Model()
         limit = self.call_limit()
         model.settings = {**self.settings, "iter_limit": limit}
-        self._model = None
         if model.setup(H, g, G, upper, lower, self._sense)[0] >= 0:
             x, _, info = self._timed(model.solve, limit)
             if x is not None:
@@ -232,14 +221,14 @@ class DaqpBackend(QPBackend, role="daqp"):
             return None
         # DAQP's one-shot interface: measured to solve degenerate problems (e.g. the ±1e-9 bands of a priority
         # cascade) that a Model workspace reports infeasible; when it does, the next solve starts with it
-        x = self._solve_oneshot(H, g)
-        self._oneshot_first = x is not None
-        return x
+        return self._solve_oneshot(H, g)
 
     def _solve_oneshot(self, H, g):
-        """:meth:`_oneshot`, counted, its multipliers kept: x or None."""
+        """:meth:`_oneshot`, counted, its multipliers kept; the next solve starts with it when it succeeded (else
+        not): x or None."""
         x, info = self._oneshot(H, g)
         self.last_multipliers = None if x is None else info["lam"]
+        self._oneshot_first = x is not None
         return x
 
     def _solve_cold(self, H, g, A, b, C, l, u, lb, ub):

@@ -266,7 +266,7 @@ class FallbackChain:
             if step.endswith("scaled call"):
                 x = backend.solve_scaled(*qp)
                 return (None if x is None else QPSolution(x, backend.name, step)), None
-            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, step), None
+            return QPSolution(backend.solve(*qp, confirm=False), backend.name, step), None  # no confirm: _solve_checked
         except SolverError as exc:
             return None, exc
         finally:
@@ -290,11 +290,6 @@ class FallbackChain:
         """start + factor × budget of :attr:`tick_clock` (``math.inf`` without one)."""
         clock = self.tick_clock
         return math.inf if clock is None else clock[0] + factor * clock[1]
-
-    @property
-    def _confirm_kw(self) -> dict:
-        # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
-        return {"confirm": False} if isinstance(self.backend, QPBackend) else {}
 
     def solve(self, qp: QPData, relax: Callable | None = None, check: Callable | None = None,
               skip_compiled: str = "") -> QPSolution:
@@ -405,14 +400,13 @@ class FallbackChain:
     def _check_hard_sets(self, first: SolverError, qp: QPData, relax: Callable | None, full: bool | None) -> bool:
         """The hard-set checks of a failed full QP after the full set's (its verdict ``full``, :meth:`_set_check`): the
         relaxed one. A set proved empty raises SolverError (``first`` extended). True: the full set has a point."""
-        _, _, A, b, C, l, u, lb, ub = qp
         if full is True:
             self.hard_set_point = True
             return True
         self.last_set_empty = full is False
         if relax is not None and self._left("FAILURE") >= MIN_CALL_ITERATIONS:
-            self.relaxed_bounds = relax(l, u, lb, ub)  # the caller's relaxed QP of this tick reuses them
-            self.relaxed_set_feasible = self._set_check(A, b, C, *self.relaxed_bounds, "FAILURE")
+            self.relaxed_bounds = relax(qp.l, qp.u, qp.lb, qp.ub)  # the caller's relaxed QP of this tick reuses them
+            self.relaxed_set_feasible = self._set_check(qp.A, qp.b, qp.C, *self.relaxed_bounds, "FAILURE")
             self._relaxed_check_final = self._check_final
             if self.relaxed_set_feasible is False:
                 self.last_set_empty = True
@@ -431,10 +425,12 @@ class FallbackChain:
         2022) can fire on feasible QPs with nearly dependent equality rows, where an active-set factorisation answers
         exactly. Raises the backend's SolverError when neither answers."""
         backend = self.backend
+        qp_backend = isinstance(backend, QPBackend)
         try:
-            return QPSolution(backend.solve(*qp, **self._confirm_kw), backend.name, "attempt")
+            # no independent re-solve (QPBackend.confirm) on the control path: it costs many control periods
+            return QPSolution(backend.solve(*qp, **({"confirm": False} if qp_backend else {})), backend.name, "attempt")
         except SolverError as exc:
-            if not (self.second_opinion_enabled and isinstance(backend, QPBackend)):
+            if not (self.second_opinion_enabled and qp_backend):
                 raise
             first = exc
         if self._daqp_check is None:
@@ -454,13 +450,9 @@ class FallbackChain:
         clock or count leaves room. ``accept(x, solver)``: the caller's solution of a candidate that passes its check
         (``solver`` None: the polished one), else None. Returns the first accepted candidate, or None."""
         backend = self.backend
-        if isinstance(backend, QPBackend):
-            xp = backend.polish(x, *qp[2:])
-            if xp is not None:
-                cand = accept(xp, None)
-                if cand is not None:
-                    return cand
-        if answered_by == "quadprog":
-            return None
+        xp = backend.polish(x, *qp[2:]) if isinstance(backend, QPBackend) else None
+        cand = None if xp is None else accept(xp, None)
+        if cand is not None or answered_by == "quadprog":
+            return cand
         xq = self._quadprog_within(qp, "QUADPROG")[0]  # the same gate as the failure path's quadprog (_stages)
         return None if xq is None else accept(xq, "quadprog")

@@ -10,7 +10,6 @@ import numpy as np
 from wbc.exceptions import InvalidInputError
 from wbc.solvers.base import QPBackend
 from wbc.solvers.daqp import DAQP_PRIMAL_TOL, ITERATION_LIMIT
-from wbc.solvers.qp_data import QPData
 
 __all__ = ["hard_set_check", "solve_pinned_reduced"]
 
@@ -36,7 +35,7 @@ def solve_pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance: float = 1e-6, *
 
 
 def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
-    qp = QPData(H, g, A, b, C, l, u, lb, ub)
+    rows = (A, b, C, l, u, lb, ub)
     pinned = np.isfinite(lb) & (lb == ub)
     free = ~pinned
     xp = lb[pinned]
@@ -54,23 +53,22 @@ def _pinned_reduced(H, g, A, b, C, l, u, lb, ub, tolerance):
     # the equalities eliminated first: about half quadprog's work on a humanoid's ID QP
     xr = _nullspace_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr, tolerance)
     if xr is not None:
-        x, reason = _checked(qp, pinned, xp, xr, tolerance)
+        x, reason = _checked(rows, pinned, xp, xr, tolerance)
         if x is not None:
             return x, reason
     xr, reason = _dense_solve(Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr)
     if xr is None:
         return None, reason
-    return _checked(qp, pinned, xp, xr, tolerance)
+    return _checked(rows, pinned, xp, xr, tolerance)
 
 
-def _checked(qp: QPData, pinned, xp, xr, tolerance):
-    """(x, '') from the pinned (at ``xp``) and free (``xr``) parts, clipped, when x meets every row to ``tolerance``;
-    else (None, 'failed')."""
-    H, g, A, b, C, l, u, lb, ub = qp
-    x = np.empty(H.shape[0])
+def _checked(rows: tuple, pinned, xp, xr, tolerance):
+    """(x, '') from the pinned (at ``xp``) and free (``xr``) parts, clipped, when x meets the constraints ``rows``
+    (A, b, C, l, u, lb, ub) to ``tolerance``; else (None, 'failed')."""
+    x = np.empty(pinned.shape[0])
     x[pinned] = xp
     x[~pinned] = xr
-    xc = QPBackend.accepted(x, A, b, C, l, u, lb, ub, tolerance)
+    xc = QPBackend.accepted(x, *rows, tolerance)
     return (None, "failed") if xc is None else (xc, "")
 
 

@@ -23,9 +23,7 @@ __all__ = ["DEFAULT_SOLVER", "PROXQP_MAX_ITER", "ProxQPBackend", "QpsolversBacke
 #: (benchmarks/fast_path.py).
 DEFAULT_SOLVER = "fast"
 #: Tight settings per qpsolvers backend so that joint limits hold to solver precision.
-_SETTINGS = {
-    "osqp": {"eps_abs": 1e-9, "eps_rel": 0.0, "polishing": True, "max_iter": 20000},
-}
+_SETTINGS = {"osqp": {"eps_abs": 1e-9, "eps_rel": 0.0, "polishing": True, "max_iter": 20000}}
 #: Default iteration cap of :class:`ProxQPBackend` (proxsuite ``max_iter``; ``max_iter_in`` min(cap, 100)).
 PROXQP_MAX_ITER = 1000
 
@@ -87,14 +85,11 @@ class ProxQPBackend(QPBackend, role="proxqp"):
 
     def _solve(self, H, g, A, b, C, l, u, lb, ub):
         n, n_eq, n_in = H.shape[0], A.shape[0], C.shape[0]
-        lbf = np.maximum(lb, -INFINITE_BOUND)
-        ubf = np.minimum(ub, INFINITE_BOUND)
-        lf = np.maximum(l, -INFINITE_BOUND) if n_in else None
-        uf = np.minimum(u, INFINITE_BOUND) if n_in else None
+        lbf, ubf = np.maximum(lb, -INFINITE_BOUND), np.minimum(ub, INFINITE_BOUND)
+        lf, uf = (np.maximum(l, -INFINITE_BOUND), np.minimum(u, INFINITE_BOUND)) if n_in else (None, None)
         Cn = C if n_in else None
         if self._dims != (n, n_eq, n_in):
-            dense = self._proxsuite.proxqp.dense
-            qp = dense.QP(n, n_eq, n_in, True)
+            qp = self._proxsuite.proxqp.dense.QP(n, n_eq, n_in, True)
             qp.settings.eps_abs = self.eps_abs
             qp.settings.eps_rel = 0.0
             qp.settings.verbose = False
@@ -108,8 +103,7 @@ class ProxQPBackend(QPBackend, role="proxqp"):
         else:
             self._qp.update(H, g, A, b, Cn, lf, uf, lbf, ubf)
             self._qp.solve()
-        status = self._qp.results.info.status
-        if status != self._proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED:
+        if self._qp.results.info.status != self._proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED:
             self._dims = None  # restart cold next time
             return None
         return self._qp.results.x.copy()
