@@ -345,9 +345,7 @@ class InverseDynamicsQP:
         """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them; None when none did."""
         if self._assembled is None:
             return None
-        m = self._m
-        return tuple(a.copy() for a in (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                         self._lb, self._ub))
+        return tuple(a.copy() for a in self._qp_views[self._m])  # (build made the views of its row count)
 
     def _relax(self, l, u, lb, ub, state: DynamicsState | None = None, dt: float = 0.0):
         """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits); with ``state``,
