@@ -262,15 +262,7 @@ class InverseDynamicsController:
             if prev is None:  # the previous tick commanded a point of its hard set (no solved command): held
                 prev = self._last_point
         self._last_point = None
-        if prev is None and spent:
-            # no command to hold: the point of the hard set that the tick's check found (every hard row met)
-            cmd = self.qp.solution_from(self.state, self.qp.chain.hard_set_x,
-                                        path=TickPath("fallback", fallback="feasible"))
-            cmd.ok = False
-            cmd.message = (f"{message}; the tick's budget was spent on a full QP whose hard set has a point, with no "
-                           "solved command to hold: that point is commanded")
-            self._last_point = cmd
-        elif prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
+        if prev is not None:  # the previous tick was solved: hold its command for this one tick (zero-order hold)
             why = ("the tick's budget was spent on a full QP whose hard set has a point: the last solved command is "
                    "held" if spent else
                    "the previous tick's command is held for this tick (a second failed tick in a row takes the safe "
@@ -280,6 +272,13 @@ class InverseDynamicsController:
                             message=f"{message}; {why}", dynamics_residual=float("nan"),
                             path=TickPath("fallback", fallback="hold"))
             self._hold_speed_bounds(cmd)
+        elif spent:  # no command to hold: the point of the hard set that the tick's check found (every hard row met)
+            cmd = self.qp.solution_from(self.state, self.qp.chain.hard_set_x,
+                                        path=TickPath("fallback", fallback="feasible"))
+            cmd.ok = False
+            cmd.message = (f"{message}; the tick's budget was spent on a full QP whose hard set has a point, with no "
+                           "solved command to hold: that point is commanded")
+            self._last_point = cmd
         else:
             cmd = self.fallback(message)
         cmd.conflicts = conflicts

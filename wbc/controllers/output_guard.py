@@ -24,15 +24,14 @@ def qp_data_fault(H: np.ndarray, g: np.ndarray, A: np.ndarray, b: np.ndarray, C:
 
 
 def command_fault(v: np.ndarray, lb: np.ndarray, ub: np.ndarray, C: np.ndarray, l: np.ndarray, u: np.ndarray,
-                  tolerance: float) -> str:
+                  tol: float) -> str:
     """Output guard of an ok tick: '' when v (n,) is finite, within [lb, ub] (n,) and l ≤ C v ≤ u (C (m, n)) to
-    ``tolerance`` (each bound or row scaled by max(1, |bound|), as
+    ``tol`` (each bound or row scaled by max(1, |bound|), as
     :meth:`wbc.solvers.base.QPBackend.scaled_violation`; a row also by max(1, |C| |v|)), else what it violates (the
     first box entry of largest scaled excess, else the first such row). The contact rows are held by the
     sole-drift check (``sole_drift_tolerance``), not here."""
     if not math.isfinite(float(v @ v)):
         return "the command v is not finite"
-    tol = tolerance
     over = np.maximum(lb - v, v - ub)
     if not (over.max(initial=-math.inf) <= tol):
         excess = over / np.maximum(1.0, np.maximum(np.abs(np.where(np.isfinite(lb), lb, 0.0)),

@@ -138,7 +138,6 @@ class InverseDynamicsQP:
         self.chain = FallbackChain(make_backend(solver, **_ID_SETTINGS.get(solver, {})) if isinstance(solver, str)
                                    else solver)
         self.eps_a = float(acceleration_regularization)
-        self.eps_f = float(force_regularization)
         self.joint_limits = bool(joint_limits)
         self.tasks: list[AccelerationReference] = []
         self.hard_tasks: list[HardTask] = []
@@ -182,7 +181,7 @@ class InverseDynamicsQP:
                               offsets={c.name: rows.cdrift[k] for k, c in enumerate(self.contacts)})
         self._force_slices = [slice(nv + 12 * k, nv + 12 * k + 12) for k in range(nc)]
         self._refresh_contact_rows()  # friction rows: constant while μ is (rewritten only when it changes)
-        self._H[nv:, nv:] = np.diag(np.full(12 * nc, self.eps_f))  # constant force regularisation
+        self._H[nv:, nv:] = np.diag(np.full(12 * nc, float(force_regularization)))  # constant force regularisation
         if isinstance(solver, str) and isinstance(self.backend, DaqpBackend):
             self.backend.scaled_settings = {"eps_prox": SCALED_EPS_PROX}
         self._fast = solver == "fast"  # the compiled solver is the chain's first rung
@@ -312,8 +311,7 @@ class InverseDynamicsQP:
             raise InvalidInputError(f"expected an AccelerationReference or a Task, got {type(task).__name__}")
         if hard:
             self.hard_tasks.append(HardTask(task))
-            if hasattr(self, "_A"):
-                self._grow_equalities()
+            self._grow_equalities()
         else:
             self.tasks.append(task)
             if hasattr(self, "_rows"):
@@ -347,20 +345,16 @@ class InverseDynamicsQP:
         """Copies of (H, g, A, b, C, l, u, lb, ub) as the last :meth:`solve` assembled them; None when none did."""
         if self._assembled is None:
             return None
-        m = self._m
-        return tuple(a.copy() for a in (self._H, self._g, self._A[:m], self._b[:m], self._C, self._l, self._u,
-                                         self._lb, self._ub))
+        return tuple(a.copy() for a in self._qp_views[self._m])  # (build made the views of its row count)
 
     def _relax(self, l, u, lb, ub, state: DynamicsState | None = None, dt: float = 0.0):
         """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits); with ``state``,
         those of the relaxed QP (:meth:`solve_relaxed`: the :attr:`joint_speed_limits` at ``state``, ``dt`` kept)."""
         l, u, lb, ub = l.copy(), u.copy(), lb.copy(), ub.copy()
         for con in self.constraints:
-            if not con.relaxable:
-                continue
-            if con.kind == "inequality":
+            if con.relaxable and con.kind == "inequality":
                 l[con.rows], u[con.rows] = -np.inf, np.inf
-            elif con.kind == "bounds":
+            elif con.relaxable and con.kind == "bounds":
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
         if state is not None and self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max
             self.joint_speed_limits.intersect(state.v, dt, lb, ub)
@@ -373,14 +367,12 @@ class InverseDynamicsQP:
         t0 = perf_counter()
         same_tick = reuse_assembly and self._assembled == (id(state), dt)
         H, g, A, b, C, l, u, lb, ub = self._qp_views[self._m] if same_tick else self.build(state, dt)
-        reused = self.chain.relaxed_bounds
-        if same_tick and reused is not None:
-            l, u, lb, ub = reused  # this tick's failed full QP formed them for its check of the relaxed hard set
-        else:
-            l, u, lb, ub = self._relax(l, u, lb, ub, state, dt)
+        # this tick's failed full QP formed the relaxed bounds for its check of the relaxed hard set
+        reuse = same_tick and self.chain.relaxed_bounds is not None
+        l, u, lb, ub = self.chain.relaxed_bounds if reuse else self._relax(l, u, lb, ub, state, dt)
         t1 = perf_counter()
         x, solver, step = self.chain.solve_relaxed(QPData(H, g, A, b, C, l, u, lb, ub), same_tick=same_tick,
-                                                   formed=not (same_tick and reused is not None))
+                                                   formed=not reuse)
         t2 = perf_counter()
         sol = self.solution_from(state, x, {"assembly": t1 - t0, "solve": t2 - t1}, TickPath("relaxed", solver),
                                  f"full QP failed → relaxed QP, {step}")
@@ -455,8 +447,7 @@ class InverseDynamicsQP:
             par[PAR_EPS_A], par[PAR_BRAKING], par[PAR_JOINT_LIMITS], par[PAR_SPEED_HORIZON] = values
             self._par_written = values
         args = (rows.tasks, IDDynamics(state.M, state.h, state.q, state.v, dt), rows.contacts, *self._buffers)
-        if self._id_assemble is None:  # the buffers' and the state's types are fixed (with kernel type checks on,
-            # the dispatcher, which resolves them on every call)
+        if self._id_assemble is None:  # the buffers' and state's types are fixed (CHECK_TYPES: the dispatcher)
             self._id_assemble = id_assemble if CHECK_TYPES else specialise(id_assemble, *args)
         m = self._id_assemble(*args)
         self._skip = ""  # why the compiled solver is not asked ('' when it is)

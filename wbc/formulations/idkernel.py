@@ -21,9 +21,8 @@ from wbc.formulations.reference import reference_rhs
 from wbc.solvers.linalg import cholesky_lower, weighted_normal_equations
 
 __all__ = ["contact_rows_well_conditioned", "inverse_diagonal", "id_assemble", "id_command", "load_id_kernels",
-           "output_violations", "task_cost", "IDTaskRows", "IDDynamics",
-           "IDContactData", "IDLimits", "IDArrays", "IDAssemblyWork", "IDOutputBuffers", "output_inputs",
-           "IDOutputCheck"]
+           "output_violations", "task_cost", "IDTaskRows", "IDDynamics", "IDContactData", "IDLimits", "IDArrays",
+           "IDAssemblyWork", "IDOutputBuffers", "output_inputs", "IDOutputCheck"]
 
 #: the arguments of :func:`id_assemble` (namedtuples, fields described there)
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
@@ -74,14 +73,8 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
     """
     nc = Jc.shape[0]
     nv = Jc.shape[2]
-    m = 0
-    for c in range(nc):
-        if active[c]:
-            m += 6
-    if m == 0:
-        return True
     tr = 0.0
-    i = 0
+    m = 0  # rows of G written (6 per active contact)
     for c in range(nc):
         if not active[c]:
             continue
@@ -91,15 +84,17 @@ def contact_rows_well_conditioned(Jc, active, ratio, G, y):
                 if not active[c2]:
                     continue
                 for r2 in range(6):
-                    if j > i:
+                    if j > m:
                         break
                     acc = 0.0
                     for k in range(nv):
                         acc += Jc[c, r, k] * Jc[c2, r2, k]
-                    G[i, j] = acc
+                    G[m, j] = acc
                     j += 1
-            tr += G[i, i]
-            i += 1
+            tr += G[m, m]
+            m += 1
+    if m == 0:
+        return True
     if not inverse_diagonal(G[:m, :m], G[:m, :m], y, y):
         return False
     tinv = 0.0
@@ -253,7 +248,6 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
             if not np.isfinite(a[i]):
                 return -1
     nc = active.shape[0]
-    status = 0
     for k in range(nc):
         worst = 0.0
         viol = 0.0
@@ -268,12 +262,9 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
             viol = max(viol, ex)
         out[2 * k, 0] = worst
         out[2 * k, 1] = viol
-        if worst > tol:
-            status = 1
+        worst = viol = -np.inf
         if active[k]:
             F = friction[k]
-            worst = -np.inf
-            viol = -np.inf
             for r in range(F.shape[0]):
                 fr = 0.0
                 size = 0.0
@@ -282,10 +273,6 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
                     size += abs(F[r, j]) * abs(f[12 * k + j])
                 worst = max(worst, fr / max(1.0, size))
                 viol = max(viol, fr)
-            if worst > tol:
-                status = 1
-        else:
-            worst = viol = -np.inf
         out[2 * k + 1, 0] = worst
         out[2 * k + 1, 1] = viol
     worst = viol = -np.inf
@@ -293,8 +280,6 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
         ex = abs(tau[joints[r]]) - limits[r]
         worst = max(worst, ex / max(1.0, limits[r]))
         viol = max(viol, ex)
-    if worst > tol:
-        status = 1
     out[2 * nc, 0] = worst
     out[2 * nc, 1] = viol
     scale = 1.0
@@ -302,9 +287,10 @@ def output_violations(dv, f, tau, residual, h, joints, limits, tol, buffers):
         scale = max(scale, abs(h[i]))
     out[2 * nc + 1, 0] = residual / scale
     out[2 * nc + 1, 1] = residual
-    if residual / scale > tol:
-        status = 1
-    return status
+    for r in range(2 * nc + 2):
+        if out[r, 0] > tol:
+            return 1
+    return 0
 
 
 @once_per_process

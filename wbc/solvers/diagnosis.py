@@ -22,6 +22,11 @@ def _nonfinite(*arrays) -> bool:
     return not all(np.isfinite(a).all() for a in arrays)
 
 
+def _excess(lo, x, hi) -> float:
+    """Largest amount by which x leaves [lo, hi] (0 inside)."""
+    return float(max(np.max(lo - x, initial=0.0), np.max(x - hi, initial=0.0)))
+
+
 def diagnose(A, b, C, l, u, lb, ub, eq_blocks, in_blocks, box_blocks, *, eps: float = 1e-8,
              tol: float = 1e-6) -> tuple[list[tuple[str, float]], np.ndarray | None]:
     """Slack-relaxed solve of the hard set (module docstring).
@@ -63,14 +68,8 @@ def diagnose(A, b, C, l, u, lb, ub, eq_blocks, in_blocks, box_blocks, *, eps: fl
     if exitflag < 1 or not np.isfinite(x).all():
         return [], None
     v = x[:n]
-    out = []
-    for name, r0, r1 in eq_blocks:
-        out.append((name, float(np.max(np.abs(A[r0:r1] @ v - b[r0:r1]), initial=0.0))))
-    for name, r0, r1 in in_blocks:
-        cv = C[r0:r1] @ v
-        out.append((name, float(max(np.max(l[r0:r1] - cv, initial=0.0), np.max(cv - u[r0:r1], initial=0.0)))))
-    for name, idx, lo, hi in box_blocks:
-        vi = v[idx]
-        out.append((name, float(max(np.max(lo - vi, initial=0.0), np.max(vi - hi, initial=0.0)))))
+    out = [(name, float(np.max(np.abs(A[r0:r1] @ v - b[r0:r1]), initial=0.0))) for name, r0, r1 in eq_blocks]
+    out += [(name, _excess(l[r0:r1], C[r0:r1] @ v, u[r0:r1])) for name, r0, r1 in in_blocks]
+    out += [(name, _excess(lo, v[idx], hi)) for name, idx, lo, hi in box_blocks]
     conflicts = sorted(((name, viol) for name, viol in out if viol > tol), key=lambda item: -item[1])
     return conflicts, v
