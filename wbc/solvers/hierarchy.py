@@ -162,7 +162,6 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
     fixed_J: list[np.ndarray] = []
     v = None
     n = H.shape[0]
-    determined = None  # first level whose solve is skipped: the levels above determine v
     solve_lexicographic.last_cut = solve_lexicographic.last_determined = None
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
         F = np.vstack(fixed_J) if fixed_J else None
@@ -170,7 +169,7 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             # the hard equalities and the levels above fix every direction of v (e.g. a posture level over every
             # joint under the contacts): the lower levels have nothing left to optimise — v is their solution too
             # (up to the ±band), and solving them is skipped
-            determined = k
+            solve_lexicographic.last_determined = k
             break
         if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
@@ -234,7 +233,6 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             v = vk
         if J is not None:
             fixed_J.append(J)
-    solve_lexicographic.last_determined = determined
     return v
 
 
