@@ -87,12 +87,11 @@ class GeneralRoute:
         if self._band_backend is None:
             self._band_backend = self._new_backend()
             self._band_backend.call_iterations = getattr(self.backend, "call_iterations", None)
-        residual = self.dependent_residual
         try:
             v = self._band_backend.solve(H, g, *band_rows(A, b, C, l, u, self._eq_rows, half), lb, ub)
         except SolverError as exc:
-            raise SolverError(f"dependent equality rows violated by {residual:.3g} after the solve, and no "
-                              f"solution holds them within ±{half:.3g} (contradictory hard equalities): {exc}") \
+            raise SolverError(f"dependent equality rows violated by {self.dependent_residual:.3g} after the solve, and "
+                              f"no solution holds them within ±{half:.3g} (contradictory hard equalities): {exc}") \
                 from None
         self.dependent_residual = float(np.max(np.abs(A @ v - b)))
         self._banded, self._banded_A = self._eq_rows, A.copy()
@@ -135,8 +134,7 @@ class GeneralRoute:
             self._level_backends.insert(0, self._new_backend(eps_prox=1e-3))
         if self._final_backend is None:
             self._final_backend = self._new_backend()
-        self.tick_budget.level_mark = self._work.seconds()
-        self.tick_budget.level_count = self._work.solves
+        self.tick_budget.level_mark, self.tick_budget.level_count = self._work.seconds(), self._work.solves
         v, self.level_residuals = solve_lexicographic(
             levels, QPData(H, g, A, b, C, l, u, lb, ub), self._level_backends[:len(levels)], self._final_backend,
             rank_rtol=self.rank_rtol, dependent_row_tolerance=self.dependent_row_tolerance,

@@ -416,8 +416,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
                     self._weighted_left = 1
             elif self._cut:
                 self._weighted_left = self.WEIGHTED_TICKS
-        t2 = perf_counter()
-        result.timings = {"assembly": t1 - t0, "solve": t2 - t1}
+        result.timings = {"assembly": t1 - t0, "solve": perf_counter() - t1}
         result.over_budget = result.over_budget or bool(self._cut) or self._work.solves > self._work.cap
         if self._cut and result.ok:
             result.path = result.path.with_budget()

@@ -117,9 +117,8 @@ class Recovery:
                             t = work.seconds()
                             d, inside = self.drift_meter.held_drift(config, v_h, dt, self._contacts, anchors, beta,
                                                                     self.SAFE_COMMAND_RADIUS)
-                            held = (tol is None or d <= tol) and inside
                             budget.check_cost = max(budget.check_cost, work.seconds() - t)
-                            if held:
+                            if (tol is None or d <= tol) and inside:
                                 v, fallback = v_h, "contacts_held"
                                 break
                             # β = 0: J_c v = 0 kept, the drift is second order in v dt: scaled by 0.9 √(tol / drift)

@@ -158,8 +158,7 @@ class Relaxation:
         inequality rows unbounded, boxes re-intersected without them), as the ID QP's relaxed solve does."""
         for c, r0, r1 in self._relaxable_blocks:
             if c.kind == "equality":
-                self._A[r0:r1] = 0.0
-                self._b[r0:r1] = 0.0
+                self._A[r0:r1] = self._b[r0:r1] = 0.0
             elif c.kind == "inequality":
                 self._l[r0:r1] = -np.inf
                 self._u[r0:r1] = np.inf

@@ -75,10 +75,7 @@ class TickWork:
 
     def add(self, n: float = 1) -> None:
         """``solves += n`` (with the clock guard: the count becomes :attr:`solves` + n)."""
-        if self._clock < math.inf:
-            self._solves = self.solves + n
-        else:
-            self._solves += n
+        self._solves = self.solves + n
 
     def reset(self, cap: float, clock: float = math.inf) -> None:
         """Start a tick: no solve yet, ``cap`` solves allowed; ``clock``: as the class docstring (``math.inf``: the
@@ -209,8 +206,7 @@ class QPBackend(ABC):
         x = np.minimum(np.maximum(x, lb), ub)
         for _ in range(2):
             near = 1e-6 * np.maximum(1.0, np.abs(x))
-            fixed = (x <= lb + near) | (x >= ub - near)
-            free = ~fixed
+            free = ~((x <= lb + near) | (x >= ub - near))
             rows, rhs = [A], [b]
             if C.shape[0]:
                 cx = C @ x
@@ -253,8 +249,7 @@ class QPBackend(ABC):
             (x, '') when one of them meets the check of :meth:`solve`, else (None, 'names of the solvers that failed',
             '' when none ran).
         """
-        tried = []
-        self.last_confirmers = tried  # the independent solvers that ran (read by solve: confirmed or not)
+        tried = self.last_confirmers = []  # the independent solvers that ran (read by solve: confirmed or not)
         for name in self.independent:
             if name == self.name or name not in qpsolvers.available_solvers:
                 continue

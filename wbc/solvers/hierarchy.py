@@ -19,6 +19,7 @@ residual checked after the last one.
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Callable
 
 import numpy as np
@@ -29,11 +30,11 @@ from wbc.solvers.qp_data import QPData
 __all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 
 
-#: the last results of :func:`independent_rows` ((A copied, rtol, rows) newest last): a cascade and the re-solves of
-#: its tick (contact corrections, trust regions: only b or the box change) ask the same matrices again
-_RANK_MEMO: list = []
 #: results kept in ``_RANK_MEMO``
 RANK_MEMO_SIZE = 6
+#: the last results of :func:`independent_rows` ((A copied, rtol, rows) newest last): a cascade and the re-solves of
+#: its tick (contact corrections, trust regions: only b or the box change) ask the same matrices again
+_RANK_MEMO: deque = deque(maxlen=RANK_MEMO_SIZE)
 #: dgeqp3's workspace size per shape of Aᵀ (:func:`independent_rows`)
 _QP3_LWORK: dict[tuple, int] = {}
 #: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
@@ -67,8 +68,6 @@ def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     rank = sum(1 for x in diag if x > tol)
     rows = np.array(sorted(p - 1 for p in jpvt[:rank].tolist()), dtype=jpvt.dtype)
     rows.setflags(write=False)
-    if len(_RANK_MEMO) >= RANK_MEMO_SIZE:
-        del _RANK_MEMO[0]
     _RANK_MEMO.append((np.array(A, dtype=float), rtol, rows))
     return rows
 
@@ -163,19 +162,15 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
     fixed_J: list[np.ndarray] = []
     v = None
     n = H.shape[0]
-    determined = None  # first level whose solve is skipped: the levels above determine v
-    solve_lexicographic.last_cut = None
-    solve_lexicographic.last_determined = None
+    solve_lexicographic.last_cut = solve_lexicographic.last_determined = None
     for k, ((J, target), backend) in enumerate(zip([*levels, (None, None)], [*backends, final_backend])):
         F = np.vstack(fixed_J) if fixed_J else None
-        if F is not None and determined is None:
-            if A.shape[0] + F.shape[0] >= n and independent_rows(np.vstack([A, F])).size == n:
-                # the hard equalities and the levels above fix every direction of v (e.g. a posture level over
-                # every joint under the contacts): the lower levels have nothing left to optimise — v is their
-                # solution too (up to the ±band), and solving them is skipped
-                determined = k
-        if determined is not None:
-            continue
+        if F is not None and A.shape[0] + F.shape[0] >= n and independent_rows(np.vstack([A, F])).size == n:
+            # the hard equalities and the levels above fix every direction of v (e.g. a posture level over every
+            # joint under the contacts): the lower levels have nothing left to optimise — v is their solution too
+            # (up to the ±band), and solving them is skipped
+            solve_lexicographic.last_determined = k
+            break
         if v is not None and stop is not None and stop():  # a count, not a clock: deterministic
             solve_lexicographic.last_cut = k  # levels 0..k-1 solved: v is the last one's solution
             return v
@@ -188,11 +183,10 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
         Hk, gk = (H, g) if J is None else (J.T @ J, -(J.T @ target))
         # a hand target 1e6 m away at a gain of 1e4 (|g| ~ 3e11) made DAQP cycle or misjudge a level with ±band rows:
         # when |g|∞ ε exceeds the tolerance the cost is divided by max(1, |g|∞, |H|max) (the same minimiser)
-        top = float(np.max(np.abs(gk), initial=0.0))
-        scale = 1.0
+        top, scale = float(np.max(np.abs(gk), initial=0.0)), 1.0
         if top * np.finfo(float).eps > backend.tolerance:
-            s = 1.0 / max(1.0, top, float(np.max(np.abs(Hk), initial=0.0)))
-            Hk, gk, scale = Hk * s, gk * s, s
+            scale = 1.0 / max(1.0, top, float(np.max(np.abs(Hk), initial=0.0)))
+            Hk, gk = Hk * scale, gk * scale
         key = (k, len(levels))
         first = memo.get(key) if memo is not None else None
         vk = hard_point = None
@@ -239,7 +233,6 @@ def _cascade(levels, qp: QPData, backends, final_backend, band, stop=None, memo=
             v = vk
         if J is not None:
             fixed_J.append(J)
-    solve_lexicographic.last_determined = determined
     return v
 
 
