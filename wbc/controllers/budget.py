@@ -119,8 +119,9 @@ class TickBudget:
         """After a tick answered by the weighted form of ``levels`` strict levels: its counted solves times levels + 1
         fit in ``share`` caps, and (clock guard) its CPU time times 2 (levels + 1) in one budget."""
         n, work = levels + 1, self.work
-        return not n * work.solves > share * work.cap and (
-            not self.clock_guard or 2 * n * work.seconds() <= self.seconds)
+        if n * work.solves > share * work.cap:
+            return False
+        return not self.clock_guard or 2 * n * work.seconds() <= self.seconds
 
     def iteration_cap(self, max_iter: int) -> int:
         """The iteration cap of the tick's first solve: ``max_iter`` without the clock guard (a count: reproducible);
