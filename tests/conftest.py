@@ -250,15 +250,6 @@ def dense_active_set(qp, arrays, limits) -> int:
     return solve_qp_into(qp, arrays, limits, np.empty(fsize), np.empty(isize, np.int64))
 
 
-def box_eq(qp, arrays, limits) -> int:
-    """:func:`wbc.solvers.box_eq.solve_box_eq_ws` (same qp, arrays, limits) in a fresh workspace: its return."""
-    from wbc.solvers.box_eq import solve_box_eq_ws
-
-    n, m = qp[0].shape[0], qp[2].shape[0]
-    return solve_box_eq_ws(qp, arrays, limits, (np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)),
-                                                np.empty((m, m)), np.empty(n), np.empty(m)))
-
-
 def highs_feasible(A, b, C, l, u, lb, ub) -> bool:
     """Whether {x : A x = b, l ≤ C x ≤ u, lb ≤ x ≤ ub} is non-empty, by HiGHS's LP (scipy): the independent oracle of
     the QP tests' feasibility claims."""

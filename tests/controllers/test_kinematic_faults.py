@@ -802,7 +802,8 @@ def test_contacts_held_is_solved_after_the_tick_count_is_spent(robots, seed, epi
 
 def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     """Kinematic fuzz seed 100014, episode 175 (humanoid15, a hand target 1e6 m away, strict levels, dt = 2 ms, the
-    fuzz's budget of 8 counted solves): at tick 4 a sole drifts 0.13 mm (> sole_drift_tolerance) even inside a
+    fuzz's budget of 8 counted solves): at tick 3 (tick 4 before every kinematic QP without rows C went to the
+    Goldfarb–Idnani kernel, s81) a sole drifts 0.13 mm (> sole_drift_tolerance) even inside a
     trust region, the count is spent before the contact correction and the trust region start, and the tick fails
     (its diagnosis skipped: the count spent). Its safe commands once ran anyway: 'constraints_only' with its checks,
     'contacts_held' at β = 1 and 1/10, then β = 0 — 23 counted solves on seed 100011 episode 14's tick 40 (6.3 ms
@@ -825,13 +826,13 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
     model = ctrl.robot.model
     contacts = ctrl.constraints[:2]
     soles = _soles_at(model, contacts)
-    for _ in range(4):
+    for _ in range(3):
         assert ctrl.solve(config, dt).ok
         config.update(config.integrate(ctrl.last_result.v, dt))
     before = soles(config.q)
     res = ctrl.solve(config, dt)
     after = soles(pin.integrate(model, config.q, res.v * dt))
-    print(f"\ntick 4: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:300]}")
+    print(f"\ntick 3: {res.path}, {ctrl._work.solves} counted solves of cap {ctrl._work.cap}; {res.message[:300]}")
     assert ctrl._work.cap == 8  # ⌊2 ms / 0.25 ms⌋: the fuzz's budget
     assert not res.ok and "diagnosis skipped: tick budget spent" in res.message  # failed past its count
     assert res.fallback == "contacts_held" and res.path == "fallback:contacts_held"
@@ -1015,7 +1016,7 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
 def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documented_safe_commands(robots):
     """The held command of a failed tick past its count (``_solve_constraints_only`` uncapped at β = 0, bounded: each DAQP call of
     the fallback backend at most ``HELD_ITERATIONS`` iterations) run to that limit. Kinematic fuzz seed 100014,
-    episode 175, tick 4 (the tick of ``test_a_failed_tick_past_its_count_takes_the_held_command_first``: its held QP
+    episode 175, tick 3 (the tick of ``test_a_failed_tick_past_its_count_takes_the_held_command_first``: its held QP
     converges in 15 DAQP iterations, 'contacts_held'), with ``HELD_ITERATIONS`` = 5 on the instance: every DAQP call
     of that solve stops at 5 iterations and the solve fails (the QP is feasible: HiGHS's LP of its hard set, and
     quadprog solves it), so, as the module docstring orders it, 'constraints_only' is tried after it (its drift too
@@ -1030,7 +1031,7 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, 100014, 175)
     assert (name, kind, strict) == ("humanoid15", "far", True)
     ctrl.FIRST_RESOLVE_WORK = math.inf
-    for _ in range(4):
+    for _ in range(3):
         assert ctrl.solve(config, dt).ok
         config.update(config.integrate(ctrl.last_result.v, dt))
     ctrl.HELD_ITERATIONS = 5
@@ -1066,7 +1067,7 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
 
     ctrl._solve_constraints_only, ctrl._safe_constraints_only = uncapped_spy, safe_spy
     res = ctrl.solve(config, dt)
-    print(f"\ntick 4: {res.path}; held solves {[(b, len(q), c, it, e) for b, q, c, it, _, e in held]}; "
+    print(f"\ntick 3: {res.path}; held solves {[(b, len(q), c, it, e) for b, q, c, it, _, e in held]}; "
           f"constraints_only {safe_calls}; {res.message[-400:]}")
     assert len(held) == 1
     bounded, qps, capped, iterations, call_iterations, error = held[0]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from conftest import box_eq, dense_active_set
+from conftest import dense_active_set
 from wbc.solvers import FastBackend, make_backend
 
 
@@ -26,13 +26,16 @@ def _random_qp(rng, n, m, box_scale):
 
 
 @pytest.mark.parametrize("seed", range(40))
-def test_kernel_is_the_exact_optimum(seed):
+def test_kernel_without_inequality_rows_is_the_exact_optimum(seed):
     rng = np.random.default_rng(seed)
     n, m = int(rng.integers(3, 40)), int(rng.integers(0, 4))
     H, g, A, b, lb, ub = _random_qp(rng, n, m, box_scale=float(rng.uniform(0.3, 2.0)))
     state = np.zeros(n, np.int8)
     x, nu, z = np.empty(n), np.zeros(m), np.zeros(n)
-    it = box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
+    no_rows = (np.zeros((0, n)), np.zeros(0), np.zeros(0))
+    qp = (H, g, A, b, *no_rows, lb, ub)
+    arrays = (state, np.zeros(0, np.int8), x, nu, np.zeros(0), z, np.empty(1))
+    it = dense_active_set(qp, arrays, (200, 1e-12, 1e-12, 1e-24))
     assert it > 0, it
     # KKT: stationarity, primal feasibility, dual sign, complementarity (thresholds set here)
     assert np.abs(H @ x + g + A.T @ nu + z).max() < 1e-9
@@ -51,9 +54,10 @@ def test_kernel_is_the_exact_optimum(seed):
         ref = qpsolvers.solve_qp(H, g, A=Ae, b=be, lb=lbf, ub=ubf, solver=solver)
         assert ref is not None
         assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max()), solver
-    # warm start from the optimal set: one iteration
-    it2 = box_eq((H, g, A, b, lb, ub), (state, x, nu, z, np.empty(1)), (200, 1e-12, 1e-12, 1e-24))
-    assert it2 == 1
+    # warm start from the optimal set: one iteration, the same x
+    x1 = x.copy()
+    it2 = dense_active_set(qp, arrays, (200, 1e-12, 1e-12, 1e-24))
+    assert it2 == 1 and np.abs(x - x1).max() < 1e-10 * max(1.0, np.abs(x1).max())
 
 
 @pytest.mark.parametrize("seed", range(40))

@@ -305,7 +305,7 @@ def open_live(robot, start_now: bool = False, terrain=None):
 
 #: Modules whose numba kernels (``cache=True``) a kinematic run (walk, balance) compiles on first use: the
 #: on-disk caches a fresh ``wbc walk`` wrote (``NUMBA_CACHE_DIR`` set to an empty folder).
-KINEMATIC_KERNELS = ("wbc.formulations.velocity_kernel", "wbc.solvers.box_eq", "wbc.solvers.active_set",
+KINEMATIC_KERNELS = ("wbc.formulations.velocity_kernel", "wbc.solvers.active_set",
                      "wbc.solvers.linalg", "wbc.tasks.com", "wbc.tasks.frame", "wbc.tasks.posture",
                      "wbc.constraints.limits", "wbc.constraints.braking", "wbc.constraints.acceleration", "wbc.constraints.contact",
                      "wbc.constraints.zmp")

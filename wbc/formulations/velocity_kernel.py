@@ -16,7 +16,6 @@ from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
 from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
-from wbc.solvers.box_eq import solve_box_eq_ws
 from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
@@ -184,20 +183,18 @@ def form_qp(sfb, sib, diff, pgain, damping, H, g):
 @nb.njit(cache=True, nogil=True)
 def _views_size(n, nr, mr, p):
     """Length of the float workspace that :func:`_solve_views` lays out."""
-    return (n + 2 * nr * nr + 6 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr
-            + mr * nr + mr * mr + mr + 1)
+    return n + nr * nr + 5 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr + 1
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(qp, er, ws):
     """Views of :func:`kinematic_solve`'s float workspace ``ws``: the reduced QP (a plain tuple in
-    :class:`KinematicQP`'s order), L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs, eqres and the solver's workspace."""
+    :class:`KinematicQP`'s order), x, z, Tc, Eb, V, wb, mu, nu, eqres and the solver's workspace."""
     n0 = 6 if er >= 0 else 0
     n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
     nr = n - n0
     H, o = carve2(ws, n, nr, nr)
-    L, o = carve2(ws, o, nr, nr)
-    vec, o = carve2(ws, o, 6, nr)  # g, lbr, ubr, x, z, t
+    vec, o = carve2(ws, o, 5, nr)  # g, lbr, ubr, x, z
     Tc, o = carve2(ws, o, 6, nr + 1)
     Eb, o = carve2(ws, o, 6, 6)
     V, o = carve2(ws, o, 6, nr)
@@ -206,11 +203,8 @@ def _solve_views(qp, er, ws):
     rows, o = carve2(ws, o, 3, p)  # lr, ur, mu
     Ar, o = carve2(ws, o, mr, nr)
     eqs, o = carve2(ws, o, 2, mr)  # br, nu
-    Y, o = carve2(ws, o, mr, nr)  # Y, S, rhs: solve_box_eq_ws (no rows of C)
-    S, o = carve2(ws, o, mr, mr)
-    rhs, o = carve(ws, o, mr)
-    return ((H, vec[0], Ar, eqs[0], Cr, rows[0], rows[1], vec[1], vec[2]), L, vec[3], vec[4], vec[5], Tc, Eb, V, wb,
-            rows[2], eqs[1], Y, S, rhs, ws[o:o + 1], ws[o + 1:])
+    return ((H, vec[0], Ar, eqs[0], Cr, rows[0], rows[1], vec[1], vec[2]), vec[3], vec[4], Tc, Eb, V, wb,
+            rows[2], eqs[1], ws[o:o + 1], ws[o + 1:])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -259,8 +253,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), and the QP is solved exactly in the nv − 6 joint velocities with
     the other rows, H, g (:func:`_reduce_cost`), A and C substituted (variable elimination: Nocedal & Wright,
     *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14). The base must be unbounded (else ``NOT_REDUCIBLE``). The
-    reduced QP goes to :func:`solve_box_eq_ws` (no rows C) or :func:`~wbc.solvers.active_set.solve_qp_into`,
-    warm-started from ``state``/``rstate``; the residuals of the original rows are then checked against
+    reduced QP goes to :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; the residuals of the original rows are then checked against
     ``tolerance``.
 
     Args:
@@ -280,7 +273,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
     nr = n - n0
     neq = A.shape[0]
     p = C.shape[0]
-    red, L, x, z, t, Tc, Eb, V, wb, mu, nu, Y, S, rhs, eqres, qpws = _solve_views(qp, er, ws)
+    red, x, z, Tc, Eb, V, wb, mu, nu, eqres, qpws = _solve_views(qp, er, ws)
     Hr, gr, Ar, br, Cr, lr, ur, lbr, ubr = red
     for i in range(n0):
         if lb[i] > -np.inf or ub[i] < np.inf:
@@ -305,13 +298,8 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         shift = _reduce_row(C[r], n0, nr, Tc, Cr[r])
         lr[r] = l[r] - shift
         ur[r] = u[r] - shift
-    if p == 0:
-        # plain tuples, the types of the fast backend's call: one compiled version of solve_box_eq_ws
-        it = solve_box_eq_ws((Hr, gr, Ar, br, lbr, ubr), (state, x, nu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24),
-                             (iws[:nr], L, Y, S, t, rhs))
-    else:
-        # plain tuples, the types of the fast backend's call: one compiled version of solve_qp_into
-        it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
+    # plain tuples, the types of the fast backend's call: one compiled version of solve_qp_into
+    it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
     if it >= 1 and not _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
         it = RESIDUAL
     if it < 1:
@@ -360,7 +348,7 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
     fsize, isize = qp_ws_sizes(nr, mr, n_in)
     fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + fsize)
-    ib = np.zeros(4 + max(nr, isize), np.int64)
+    ib = np.zeros(4 + isize, np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     return fb, ib
 

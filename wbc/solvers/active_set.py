@@ -11,8 +11,8 @@ set is a strategy chosen by the type of the ``space`` argument (numba compiles o
   (:mod:`wbc.solvers.active_set_block`, :func:`wbc.solvers.compiled_id.id_solve`).
 
 A constraint linearly dependent on the working set only drops working constraints, which keeps the working set
-independent — the degenerate case (nearly parallel self-collision rows, a sole corner at f_z = 0) that makes the
-principal pivoting of :mod:`wbc.solvers.box_eq` stop. Exit codes: :mod:`wbc.solvers.status`.
+independent — the degenerate case of nearly parallel self-collision rows or a sole corner at f_z = 0. Exit codes:
+:mod:`wbc.solvers.status`.
 """
 
 from __future__ import annotations
@@ -24,11 +24,10 @@ import numpy as np
 from numba.extending import overload
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.solvers.box_eq import clip_eq_residual, drop_infinite_active
 from wbc.solvers.active_set_block import (block_direction, block_eqp, block_prepare, block_start, block_target,
                                           block_update)
-from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_lower, forward_substitution,
-                                primal_from_multipliers, row_violation)
+from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_lower, clip_eq_residual,
+                                drop_infinite_active, forward_substitution, primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
@@ -55,6 +54,9 @@ QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
 QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
 #: negative working multiplier, relative to the largest (at least 1), that fails :func:`dual_active_set`'s KKT check
 DUAL_CHECK_TOL = 1e-9
+#: largest residual of a working row (its units) that the dense strategy's equality-constrained optimum keeps without
+#: a step of iterative refinement (:func:`_dense_refine`): the kinematic kernels' primal tolerance
+REFINE_TOL = 1e-12
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
@@ -163,6 +165,43 @@ def _dense_start(qp, sp, state, rstate):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def _dense_refine(qp, sp, mw, x):
+    """One step of iterative refinement of :func:`_dense_eqp`'s x and ν on the working set (Golub & Van Loan,
+    *Matrix Computations*, 4th ed., §3.5.3; S = Y Yᵀ squares the conditioning of the working rows) when a working
+    row's residual r = b_W − N x exceeds :data:`REFINE_TOL`: S w = r, ν ← ν − w and x ← x + L⁻ᵀ Yᵀ w, the
+    least-H-norm step onto the rows (sp.tmp and sp.w as scratch)."""
+    A, C = qp[2], qp[5]
+    n = x.shape[0]
+    Yw, r, e, kind, idx = sp.Yw, sp.tmp, sp.w, sp.kind, sp.idx
+    big = 0.0
+    for k in range(mw):
+        s = sp.bw[k]
+        if kind[k] == 2:
+            s -= x[idx[k]]
+        else:
+            row = A[idx[k]] if kind[k] == 0 else C[idx[k]]
+            for j in range(n):
+                s -= row[j] * x[j]
+        r[k] = s
+        big = max(big, abs(s))
+    if big <= REFINE_TOL:
+        return
+    forward_substitution(sp.Sf, mw, r)
+    backward_substitution(sp.Sf, mw, r)
+    for j in range(n):
+        e[j] = 0.0
+    for k in range(mw):
+        wk = r[k]
+        sp.nuw[k] -= wk
+        yk = Yw[k]
+        for j in range(n):
+            e[j] += yk[j] * wk
+    backward_substitution(sp.L, n, e)
+    for j in range(n):
+        x[j] += e[j]
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
     """The equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
     H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν) (Hx + g + Nᵀν = 0); ν of the equality rows
@@ -178,6 +217,8 @@ def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
     forward_substitution(sp.Sf, mw, nuw)
     backward_substitution(sp.Sf, mw, nuw)
     primal_from_multipliers(sp.L, n, t0, Yw, nuw, mw, x)
+    if mw:
+        _dense_refine(qp, sp, mw, x)
     for k in range(m):
         nu[k] = nuw[k]
     for k in range(m, mw):

@@ -28,9 +28,8 @@ import numpy as np
 from wbc.compiled import CHECK_TYPES, FASTMATH, specialise
 from wbc.exceptions import SolverError
 from wbc.solvers.active_set import ActiveSetArrays, ActiveSetSettings, BlockSpace, dual_active_set
-from wbc.solvers.box_eq import clip_eq_residual
 from wbc.solvers.linalg import (backward_substitution, block_cost_gradient, carve, carve2, cholesky_lower,
-                                forward_substitution, primal_from_multipliers)
+                                clip_eq_residual, forward_substitution, primal_from_multipliers)
 from wbc.solvers.qp_data import QPData, QPSolution
 from wbc.solvers.status import SolverStatus
 

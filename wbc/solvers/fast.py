@@ -1,8 +1,7 @@
 """The compiled exact backend, ``fast``: :class:`FastBackend`, the in-house active-set kernels with DAQP as fallback.
 
-A QP without rows C goes to :func:`wbc.solvers.box_eq.solve_box_eq_ws`, one with them to
-:func:`wbc.solvers.active_set.solve_qp_into`, each warm-started. Either ends only at a KKT point (the exact optimum);
-a call that does not (iteration cap, H not positive definite, dependent equalities) goes to the
+A QP goes to :func:`wbc.solvers.active_set.solve_qp_into` (Goldfarb–Idnani), warm-started. It ends only at a KKT
+point (the exact optimum); a call that does not (iteration cap, H not positive definite, dependent equalities) goes to the
 :class:`~wbc.solvers.daqp.DaqpBackend` it extends.
 """
 
@@ -14,7 +13,6 @@ import numpy as np
 
 from wbc.compiled import once_per_process
 from wbc.solvers.active_set import load_active_set_kernels, qp_ws_sizes, solve_qp_into
-from wbc.solvers.box_eq import load_box_eq_kernels, solve_box_eq_ws
 from wbc.solvers.daqp import DaqpBackend
 
 __all__ = ["FastBackend", "load_fast_kernels"]
@@ -58,36 +56,28 @@ class FastBackend(DaqpBackend):
     def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
         """One warm-started kernel call; True when it ended at a KKT point within ``tolerance`` (x in ``self._x``),
         else its working sets are cleared. The bounds' working set is kept while n stays, the rows' while n and p
-        stay (a call without rows keeps it); the workspaces are kept per shape (a support switch revisits a few)."""
+        stay; the workspaces are kept per shape (a support switch revisits a few)."""
         n, m, p = H.shape[0], A.shape[0], C.shape[0]
         if n != self._n:
             self._n, self._p, self._ws = n, -1, {}
             self._state, self._x, self._z = np.zeros(n, np.int8), np.empty(n), np.zeros(n)
-        if p and p != self._p:
+        if p != self._p:
             self._p, self._rstate, self._mu = p, np.zeros(p, np.int8), np.zeros(p)
         ws = self._ws.get((m, p))
         if ws is None:
             fsize, isize = qp_ws_sizes(n, m, p)
-            ws = self._ws[m, p] = (np.zeros(m), (np.empty(fsize), np.empty(isize, np.int64)) if p else (
-                np.empty(n, np.int64), np.empty((n, n)), np.empty((m, n)), np.empty((m, m)), np.empty(n),
-                np.empty(m)))
-        self._nu, space = ws
-        limits = (self.max_iter, 1e-12, 1e-12, 1e-24)
-        # plain tuples (QPData, QPWarmArrays, QPLimits, BoxEqSpace): numba types them faster (4.3 µs a call,
-        # namedtuples 9.7 µs)
-        if p:
-            it = solve_qp_into((H, g, A, b, C, l, u, lb, ub), (self._state, self._rstate, self._x, self._nu, self._mu,
-                                                               self._z, self._eq_residual), limits, *space)
-        else:
-            it = solve_box_eq_ws((H, g, A, b, lb, ub), (self._state, self._x, self._nu, self._z, self._eq_residual),
-                                 limits, space)
+            ws = self._ws[m, p] = (np.zeros(m), np.empty(fsize), np.empty(isize, np.int64))
+        self._nu, fw, iw = ws
+        # plain tuples (QPData, QPWarmArrays, QPLimits): numba types them faster (4.3 µs a call, namedtuples 9.7 µs)
+        it = solve_qp_into((H, g, A, b, C, l, u, lb, ub), (self._state, self._rstate, self._x, self._nu, self._mu,
+                                                           self._z, self._eq_residual), (self.max_iter, 1e-12, 1e-12,
+                                                                                          1e-24), fw, iw)
         self.last_kernel_iterations = it
         if it > 0 and self._eq_residual[0] <= self.tolerance:
             self.kernel_solves += 1
             return True
         self._state[:] = 0
-        if p:
-            self._rstate[:] = 0
+        self._rstate[:] = 0
         return False
 
     def solve(self, H, g, A, b, C, l, u, lb, ub, *, confirm: bool = True) -> np.ndarray:
@@ -137,5 +127,4 @@ def load_fast_kernels() -> float:
     once per process; returns the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
     load_active_set_kernels()
-    load_box_eq_kernels()
     return time.perf_counter() - t0

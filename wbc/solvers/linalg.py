@@ -1,7 +1,8 @@
-"""Compiled (numba) dense linear algebra shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`,
-:mod:`wbc.solvers.active_set`, :mod:`wbc.formulations.idkernel`): in-place Cholesky factor, forward and backward
+"""Compiled (numba) dense linear algebra shared by the in-house QP kernels (:mod:`wbc.solvers.active_set`,
+:mod:`wbc.solvers.compiled_id`, :mod:`wbc.formulations.idkernel`): in-place Cholesky factor, forward and backward
 substitution, the primal step of a Cholesky/Schur KKT solve, weighted normal equations, the clip of a box into
-another, the residuals of equality and inequality rows at a point, and their scaled violations.
+another, the residuals of equality and inequality rows at a point, and their scaled violations; a working set's
+entries at infinite bounds freed.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from numba.extending import register_jitable
 from wbc.compiled import FASTMATH
 
 __all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "clip_entry_into",
-           "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
+           "clip_eq_residual", "drop_infinite_active", "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
            "scaled_row_violation", "weighted_normal_equations"]
 
 
@@ -159,6 +160,27 @@ def equality_residual(A, b, x, n, m):
         if abs(s) > r:
             r = abs(s)
     return r
+
+
+@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
+def clip_eq_residual(x, lb, ub, A, b, n, m):
+    """Clip x into [lb, ub] in place; return :func:`equality_residual` at the clipped x."""
+    for i in range(n):
+        if x[i] < lb[i]:
+            x[i] = lb[i]
+        elif x[i] > ub[i]:
+            x[i] = ub[i]
+    return equality_residual(A, b, x, n, m)
+
+
+@nb.njit(cache=True, nogil=True)
+def drop_infinite_active(state, lo, hi):
+    """Free the entries of a warm-start state (−1 lower, +1 upper, 0 free) held at an infinite bound, in place."""
+    for i in range(state.shape[0]):
+        if state[i] == -1 and not np.isfinite(lo[i]):
+            state[i] = 0
+        elif state[i] == 1 and not np.isfinite(hi[i]):
+            state[i] = 0
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)

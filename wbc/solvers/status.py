@@ -1,4 +1,4 @@
-"""Exit codes shared by the in-house QP kernels (:mod:`wbc.solvers.box_eq`, :mod:`wbc.solvers.active_set`,
+"""Exit codes shared by the in-house QP kernels (:mod:`wbc.solvers.active_set`, :mod:`wbc.solvers.compiled_id`,
 :mod:`wbc.formulations.velocity_kernel`, :mod:`wbc.formulations.idkernel`).
 
 A kernel returns a count ≥ 0 on success and one negative :class:`SolverStatus` otherwise (one code, one meaning);
