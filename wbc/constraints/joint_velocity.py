@@ -24,6 +24,15 @@ braking torques beyond the drive's limits and makes the full QP infeasible). A f
 time constant τ with a pure delay θ does not overshoot for θ/τ ≤ 1/e, so h ≳ e × (lag in ticks) keeps the plant's
 velocity under the bound (h = 4 for the 1.5-tick estimator lag, + 2 per tick of control delay:
 :data:`wbc.sim.actuators.SPEED_HORIZON`). h = 1 is the dead-beat bound above.
+
+**Braking floor.** A joint already past its bound (an impact, a foot rolling under a push) is asked to brake at
+``braking`` a_brk (rad/s²) or more, not at (|v| − s q̇_max)/(h dt) however large that is: the bound is widened to
+v̇ ≤ max((s q̇_max − v)/(h dt), −a_brk) and v̇ ≥ min((−s q̇_max − v)/(h dt), a_brk) — the full QP's own rule (eq. 9's
+velocity term with its braking acceleration, :func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`).
+With the full QP's a_brk these bounds contain the full QP's joint bounds, so the relaxed solve that keeps them is a
+relaxation of the full QP (its hard set contains the full one's). Without the floor (a_brk = ∞), a joint at 2.8×
+its limit under a loaded sole asks more braking than the contact, friction and dynamics rows allow: the relaxed
+set is empty while the full one is not (record 66).
 """
 
 from __future__ import annotations
@@ -71,20 +80,26 @@ class JointSpeedBounds(IDConstraint):
             number for every joint, or an (nv − 6,) array, one per actuated joint in Pinocchio's velocity order.
         horizon: h, ticks (≥ 1) over which the commanded acceleration may take a joint to the bound (module
             docstring); 1: the next tick's velocity is bounded.
+        braking: a_brk (rad/s², > 0; ∞: none), the braking floor of a joint past its bound (module docstring): the
+            full QP's ``braking_acceleration``.
 
     Raises:
-        InvalidInputError: a margin outside [0, 1) or an array of the wrong size, horizon not a finite number ≥ 1.
+        InvalidInputError: a margin outside [0, 1) or an array of the wrong size, horizon not a finite number ≥ 1,
+            braking not a number > 0.
     """
 
     name = "joint_speed_limits"
     kind = "bounds"
     relaxable = False
 
-    def __init__(self, robot, margin=0.0, horizon: float = 1.0):
+    def __init__(self, robot, margin=0.0, horizon: float = 1.0, braking: float = np.inf):
         margins = speed_margins(robot, margin)
         if not (np.isfinite(horizon) and horizon >= 1.0):
             raise InvalidInputError(f"horizon must be a finite number of ticks ≥ 1, got {horizon!r}")
+        if isinstance(braking, bool) or not isinstance(braking, (int, float)) or not braking > 0:
+            raise InvalidInputError(f"braking must be a number > 0 rad/s² (inf: no floor), got {braking!r}")
         self.horizon = float(horizon)
+        self.braking = float(braking)
         model = robot.model
         iv = [model.joints[j].idx_v for j in range(2, model.njoints)
               if model.joints[j].nv == 1 and 0 < model.velocityLimit[model.joints[j].idx_v] < np.inf]
@@ -100,6 +115,8 @@ class JointSpeedBounds(IDConstraint):
         dth = dt * self.horizon
         np.divide(-self.vmax - vj, dth, out=self._lo)
         np.divide(self.vmax - vj, dth, out=self._hi)
+        np.minimum(self._lo, self.braking, out=self._lo)
+        np.maximum(self._hi, -self.braking, out=self._hi)
         return self._lo, self._hi
 
     def intersect(self, v: np.ndarray, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:

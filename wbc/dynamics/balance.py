@@ -126,9 +126,9 @@ class IDBalanceController:
                                     list(self.contacts.values()), solver=solver, **qp_options)
         self.controller = InverseDynamicsController(self.qp, dt)
         margins = speed_margins(robot, speed_margin)
-        speed = JointSpeedBounds(robot, margins, speed_horizon)
-        self.qp.joint_speed_limits = speed
         jl = self.qp.joint_acceleration_limits
+        speed = JointSpeedBounds(robot, margins, speed_horizon, jl.braking_acceleration)  # (the full QP's floor)
+        self.qp.joint_speed_limits = speed
         jl.speed_horizon = speed.horizon
         if margins.any():
             jl.vmax[:] *= 1.0 - margins[jl.iv - 6]  # in place: the compiled tick reads it
