@@ -96,10 +96,8 @@ class JointSpeedBounds(IDConstraint):
         margins = speed_margins(robot, margin)
         if not (np.isfinite(horizon) and horizon >= 1.0):
             raise InvalidInputError(f"horizon must be a finite number of ticks ≥ 1, got {horizon!r}")
-        if isinstance(braking, bool) or not isinstance(braking, (int, float)) or not braking > 0:
-            raise InvalidInputError(f"braking must be a number > 0 rad/s² (inf: no floor), got {braking!r}")
         self.horizon = float(horizon)
-        self.braking = float(braking)
+        self.braking = braking
         model = robot.model
         iv = [model.joints[j].idx_v for j in range(2, model.njoints)
               if model.joints[j].nv == 1 and 0 < model.velocityLimit[model.joints[j].idx_v] < np.inf]
@@ -109,8 +107,20 @@ class JointSpeedBounds(IDConstraint):
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
 
+    @property
+    def braking(self) -> float:
+        """a_brk (rad/s², > 0; ∞: none): the braking floor of a joint past its bound (module docstring)."""
+        return self._braking
+
+    @braking.setter
+    def braking(self, value) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not value > 0:
+            raise InvalidInputError(f"braking must be a number > 0 rad/s² (inf: no floor), got {value!r}")
+        self._braking = float(value)
+
     def bounds(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """(lo, hi) (dim,) bounds on v̇[indices] (rad/s²) at the velocity ``v`` (nv,) for the period ``dt`` (s)."""
+        """(lo, hi) (dim,) bounds on v̇[indices] (rad/s²) at the velocity ``v`` (nv,) for the period ``dt`` (s), with
+        the braking floor (module docstring)."""
         vj = v[self.indices]
         dth = dt * self.horizon
         np.divide(-self.vmax - vj, dth, out=self._lo)
