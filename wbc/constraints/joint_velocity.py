@@ -8,7 +8,8 @@ i.e. v̇ ∈ [(−s q̇_max − v)/dt, (s q̇_max − v)/dt] (rad/s²): the velo
 next tick is within the limit. It is the velocity term of the joint bounds (eq. 9 of
 :mod:`wbc.formulations.acceleration`, del Prete 2018, IEEE RA-L 3(1):281–288, §III), which the relaxed solve drops
 together with the position and viability terms; this constraint is **not relaxable**, so the relaxed solve
-intersects its bounds back in (a joint above its limit is commanded back under it).
+intersects its bounds back in (a joint above its limit is braked back under it, over the horizon below or at the
+braking floor below when that asks for less).
 
 **Speed horizon.** The one-tick bound is dead-beat: it lets a joint reach the bound in one tick. When the velocity
 the controller reads lags the plant's (encoder differencing and low-pass filtering: ~1.5 ticks with
