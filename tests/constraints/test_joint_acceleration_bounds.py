@@ -1,7 +1,8 @@
 """Joint position / velocity / viability bounds on the accelerations (wbc.constraints.joint_acceleration_bounds):
 a joint driven at its upper bound every tick (q⁺ = q + v dt + ½ v̇ dt², v⁺ = v + v̇ dt, the bound's own model) never
 passes its position or speed limit and comes to rest at the position limit; the same mirrored at the lower bound;
-the constraint's bounds are the kernel's at the state; typed error of a bad braking acceleration."""
+the constraint's bounds are the kernel's at the state; typed errors of a bad braking acceleration or speed horizon,
+at construction and on assignment."""
 
 from __future__ import annotations
 
@@ -43,3 +44,17 @@ def test_the_constraint_writes_the_kernels_bounds(robots):
     assert (lb <= ub).all()
     with pytest.raises(InvalidInputError, match="braking_acceleration"):
         JointAccelerationLimits(robot, braking_acceleration=0.0)
+
+
+def test_braking_acceleration_and_speed_horizon_are_checked_on_assignment(robots):
+    con = JointAccelerationLimits(robots("talos"))
+    for bad in (0.0, -1.0, np.inf, np.nan, True, None, "50"):
+        with pytest.raises(InvalidInputError, match="braking_acceleration"):
+            con.braking_acceleration = bad
+    for bad in (0.5, np.inf, np.nan, False, None, "4"):
+        with pytest.raises(InvalidInputError, match="speed_horizon"):
+            con.speed_horizon = bad
+    assert (con.braking_acceleration, con.speed_horizon) == (50.0, 1.0)
+    con.braking_acceleration, con.speed_horizon = 20, np.float64(4.0)
+    assert (con.braking_acceleration, con.speed_horizon) == (20.0, 4.0)
+    assert type(con.braking_acceleration) is float and type(con.speed_horizon) is float

@@ -129,8 +129,8 @@ def test_the_relaxed_qp_answers_a_tick_with_an_ankle_past_its_speed_limit(robots
     66) where the right ankle roll turns at 2.8× its URDF speed limit as the other sole lands, both soles in contact.
     HiGHS finds the full QP's hard set empty; the relaxed one (relaxable constraints dropped, these bounds with the
     full QP's braking floor intersected back in, as the relaxed solve does) has a point, and the controller commands
-    the relaxed QP's answer. Without the floor the relaxed hard set is empty too and the tick falls back to gravity
-    compensation."""
+    the relaxed QP's answer. Without the floor the relaxed hard set is empty too (the relaxed QP applies at most the
+    full QP's floor whatever the bounds' own: the next test)."""
     from pathlib import Path
 
     from wbc.dynamics import IDBalanceController
@@ -165,8 +165,37 @@ def test_the_relaxed_qp_answers_a_tick_with_an_ankle_past_its_speed_limit(robots
     x = np.concatenate([cmd.dv, cmd.forces])
     assert np.all(x >= rlb - 1e-6) and np.all(x <= rub + 1e-6)
     assert not _hard_set_has_a_point(A, b, C, *relaxed_set(np.inf))
-    ctrl = IDBalanceController(robot)  # (no command of an earlier tick to hold)
-    ctrl.qp.joint_speed_limits.braking = np.inf
+
+
+@pytest.mark.parametrize("a_brk, horizon", [(20.0, 1.0), (50.0, 4.0)])
+def test_the_relaxed_qp_follows_the_full_qps_floor_and_horizon_assigned_after_construction(robots, a_brk, horizon):
+    """The full QP's braking acceleration and speed horizon are assignable between ticks; the relaxed QP's speed
+    bounds follow them (the JointSpeedBounds object keeps its own numbers), so that on the fixture tick of the test
+    above its bounds still contain the full QP's joint bounds at the new numbers (joint_acceleration_bounds, the
+    independent closed form). With the numbers given at construction (a_brk 50, h 1) they do not: the ankle past
+    its limit is asked v̇ ≤ −50 where the full QP asks −20, or the other joints are bounded over 1 tick, not 4."""
+    from pathlib import Path
+
+    from wbc.constraints.joint_acceleration_bounds import joint_acceleration_bounds
+    from wbc.dynamics import IDBalanceController
+
+    robot = robots("talos")
+    with np.load(Path(__file__).parents[1] / "fixtures" / "id_ankle_past_speed_limit_talos.npz") as z:
+        q, v = z["q"], z["v"]
+    ctrl = IDBalanceController(robot)
+    jl, speed = ctrl.qp.joint_acceleration_limits, ctrl.qp.joint_speed_limits
+    assert (speed.braking, speed.horizon, jl.speed_horizon) == (50.0, 1.0, 1.0)
+    jl.braking_acceleration, jl.speed_horizon = a_brk, horizon
     ctrl.reset(q, v)
     cmd = ctrl.solve(q, v)
-    assert not cmd.ok and str(cmd.path) == "fallback:gravity", cmd.path
+    assert cmd.ok and cmd.relaxed, cmd.message
+    relaxed = ctrl.qp.chain.relaxed_bounds
+    assert relaxed is not None
+    lb, ub = relaxed[2][speed.indices], relaxed[3][speed.indices]
+    lo_f, hi_f = joint_acceleration_bounds(q, v, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax, a_brk, ctrl.dt,
+                                           speed_horizon=horizon)
+    assert jl.iv.tolist() == speed.indices.tolist()
+    assert np.all(lb <= lo_f + 1e-9) and np.all(ub >= hi_f - 1e-9)
+    lo0, hi0 = speed.bounds(v, ctrl.dt)  # its own numbers: a_brk 50, h 1
+    assert np.any(lo0 > lo_f + 1e-9) or np.any(hi0 < hi_f - 1e-9)
+    assert (speed.braking, speed.horizon) == (50.0, 1.0)

@@ -26,6 +26,13 @@ class JointAccelerationLimits(IDConstraint):
 
     Args:
         robot: the robot. braking_acceleration: a_brk (rad/s²), > 0.
+
+    Attributes:
+        braking_acceleration: a_brk (rad/s², finite, > 0), validated on assignment too.
+        speed_horizon: h (ticks, finite, ≥ 1) of the velocity term, validated on assignment too.
+
+    Raises:
+        InvalidInputError: a_brk not a finite number > 0; on assignment, h not a finite number ≥ 1.
     """
 
     name = "joint_limits"
@@ -33,8 +40,7 @@ class JointAccelerationLimits(IDConstraint):
     relaxable = True
 
     def __init__(self, robot: Robot, braking_acceleration: float = 50.0):
-        if not (np.isfinite(braking_acceleration) and braking_acceleration > 0):
-            raise InvalidInputError(f"braking_acceleration must be finite and > 0, got {braking_acceleration!r}")
+        self.braking_acceleration = braking_acceleration
         model = robot.model
         iq, iv = [], []
         for j in range(2, model.njoints):
@@ -49,9 +55,7 @@ class JointAccelerationLimits(IDConstraint):
         self.qmax = np.asarray(model.upperPositionLimit, dtype=float)[self.iq].copy()
         vmax = np.asarray(model.velocityLimit, dtype=float)[self.iv]
         self.vmax = np.where(vmax > 0, vmax, np.inf)
-        self.braking_acceleration = float(braking_acceleration)
-        #: ticks h over which the velocity term lets a joint reach ±vmax (≥ 1; see joint_acceleration_bounds)
-        self.speed_horizon = 1.0
+        self.speed_horizon = 1.0  # (joint_acceleration_bounds)
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
         self._joints = JointRange(self.iq, self.iv, self.qmin, self.qmax, self.vmax)
@@ -60,6 +64,30 @@ class JointAccelerationLimits(IDConstraint):
         # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
         self._kernel = joint_bounds_kernel if CHECK_TYPES else specialise(
             joint_bounds_kernel, _strided(1), _strided(1), self._joints, 1.0, 1e-3, 1.0, self._lo, self._hi)
+
+    @property
+    def braking_acceleration(self) -> float:
+        """a_brk (rad/s², finite, > 0): the viability bound's braking acceleration."""
+        return self._braking
+
+    @braking_acceleration.setter
+    def braking_acceleration(self, value) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not (
+                np.isfinite(value) and value > 0):
+            raise InvalidInputError(f"braking_acceleration must be a finite number > 0 (rad/s²), got {value!r}")
+        self._braking = float(value)
+
+    @property
+    def speed_horizon(self) -> float:
+        """h (ticks, finite, ≥ 1) over which the velocity term lets a joint reach ±vmax (joint_acceleration_bounds)."""
+        return self._horizon
+
+    @speed_horizon.setter
+    def speed_horizon(self, value) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not (
+                np.isfinite(value) and value >= 1):
+            raise InvalidInputError(f"speed_horizon must be a finite number of ticks ≥ 1, got {value!r}")
+        self._horizon = float(value)
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) at ``state`` (arrays reused across calls): :func:`joint_acceleration_bounds`."""

@@ -30,10 +30,12 @@ velocity under the bound (h = 4 for the 1.5-tick estimator lag, + 2 per tick of 
 ``braking`` a_brk (rad/s²) or more, not at (|v| − s q̇_max)/(h dt) however large that is: the bound is widened to
 v̇ ≤ max((s q̇_max − v)/(h dt), −a_brk) and v̇ ≥ min((−s q̇_max − v)/(h dt), a_brk) — the full QP's own rule (eq. 9's
 velocity term with its braking acceleration, :func:`~wbc.constraints.joint_acceleration_bounds.joint_bounds_kernel`).
-With the full QP's a_brk these bounds contain the full QP's joint bounds, so the relaxed solve that keeps them is a
-relaxation of the full QP (its hard set contains the full one's). Without the floor (a_brk = ∞), a joint at 2.8×
-its limit under a loaded sole asks more braking than the contact, friction and dynamics rows allow: the relaxed
-set is empty while the full one is not (record 66).
+With the full QP's a_brk and horizon these bounds contain the full QP's joint bounds, so the relaxed solve that keeps
+them is a relaxation of the full QP (its hard set contains the full one's): the relaxed ID QP therefore applies its
+full QP's current horizon and at most its current a_brk (``JointAccelerationLimits.speed_horizon`` and
+``braking_acceleration``, assignable between ticks), not the values given here at construction. Without the floor
+(a_brk = ∞), a joint at 2.8× its limit under a loaded sole asks more braking than the contact, friction and dynamics
+rows allow: the relaxed set is empty while the full one is not (record 66).
 """
 
 from __future__ import annotations
@@ -119,20 +121,26 @@ class JointSpeedBounds(IDConstraint):
             raise InvalidInputError(f"braking must be a number > 0 rad/s² (inf: no floor), got {value!r}")
         self._braking = float(value)
 
-    def bounds(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    def bounds(self, v: np.ndarray, dt: float, *, horizon: float | None = None,
+               braking: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) bounds on v̇[indices] (rad/s²) at the velocity ``v`` (nv,) for the period ``dt`` (s), with
-        the braking floor (module docstring)."""
+        the braking floor (module docstring); ``horizon`` (ticks) and ``braking`` (rad/s²), when given, in place of
+        :attr:`horizon` and :attr:`braking` (the relaxed ID QP passes its full QP's: module docstring). The
+        arrays are reused across calls."""
         vj = v[self.indices]
-        dth = dt * self.horizon
+        dth = dt * (self.horizon if horizon is None else horizon)
+        floor = self.braking if braking is None else braking
         np.divide(-self.vmax - vj, dth, out=self._lo)
         np.divide(self.vmax - vj, dth, out=self._hi)
-        np.minimum(self._lo, self.braking, out=self._lo)
-        np.maximum(self._hi, -self.braking, out=self._hi)
+        np.minimum(self._lo, floor, out=self._lo)
+        np.maximum(self._hi, -floor, out=self._hi)
         return self._lo, self._hi
 
-    def intersect(self, v: np.ndarray, dt: float, lb: np.ndarray, ub: np.ndarray) -> None:
-        """Tighten the QP's variable bounds ``lb``/``ub`` (n,) in place with these bounds."""
-        lo, hi = self.bounds(v, dt)
+    def intersect(self, v: np.ndarray, dt: float, lb: np.ndarray, ub: np.ndarray, *, horizon: float | None = None,
+                  braking: float | None = None) -> None:
+        """Tighten the QP's variable bounds ``lb``/``ub`` (n,) in place with these bounds (``horizon``, ``braking``:
+        as in :meth:`bounds`)."""
+        lo, hi = self.bounds(v, dt, horizon=horizon, braking=braking)
         idx = self.indices
         lb[idx] = np.maximum(lb[idx], lo)
         ub[idx] = np.minimum(ub[idx], hi)

@@ -159,7 +159,7 @@ class InverseDynamicsQP:
         self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.unilaterality = [Unilaterality(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
-        self.joint_speed_limits = None  # optional JointSpeedBounds, kept by solve_relaxed
+        self.joint_speed_limits = None  # optional JointSpeedBounds, kept by solve_relaxed at this QP's h and a_brk
         self.tau_max = self.torque_limits.tau_max
         r = 0
         for con in (self.torque_limits, *self.friction):
@@ -348,16 +348,16 @@ class InverseDynamicsQP:
         return tuple(a.copy() for a in self._qp_views[self._m])  # (build made the views of its row count)
 
     def _relax(self, l, u, lb, ub, state: DynamicsState | None = None, dt: float = 0.0):
-        """Copies of (l, u, lb, ub) without the relaxable constraints (torque limits, joint limits); with ``state``,
-        those of the relaxed QP (:meth:`solve_relaxed`: the :attr:`joint_speed_limits` at ``state``, ``dt`` kept)."""
+        """Copies of (l, u, lb, ub) without the relaxable rows; with ``state``, the relaxed QP's (solve_relaxed)."""
         l, u, lb, ub = l.copy(), u.copy(), lb.copy(), ub.copy()
         for con in self.constraints:
             if con.relaxable and con.kind == "inequality":
                 l[con.rows], u[con.rows] = -np.inf, np.inf
             elif con.relaxable and con.kind == "bounds":
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
-        if state is not None and self.joint_speed_limits is not None:  # not relaxable: |v + v̇ dt| ≤ v_max
-            self.joint_speed_limits.intersect(state.v, dt, lb, ub)
+        if state is not None and (sb := self.joint_speed_limits) is not None:  # not relaxable: the full QP's h and
+            jl, floor = self.joint_acceleration_limits, sb.braking  # at most its a_brk: a relaxation (joint_velocity)
+            sb.intersect(state.v, dt, lb, ub, horizon=jl.speed_horizon, braking=min(floor, jl.braking_acceleration))
         return l, u, lb, ub
 
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:
