@@ -796,3 +796,29 @@ def test_output_check_names_each_violation_with_its_size(robots):
     assert "torque_limits" not in dict(qp.verify(state, bad, relaxed=True))
     tau[j] = np.nan
     assert qp.verify(state, dataclasses.replace(sol, tau=tau))[0][0] == "non_finite_command"
+
+
+def test_without_joint_limits_the_relaxed_qp_adds_no_speed_bounds(robots):
+    """``joint_limits=False``: the full QP has no joint bounds (9), so the relaxed QP, which must contain the full
+    one, adds none either — not the controller's JointSpeedBounds. A hard posture task (v̇ = 0) with the torque
+    limits at 1 % makes the full QP infeasible at a standing state with a wrist at 3× its speed limit (HiGHS on the
+    assembled QP); the relaxed QP's bounds on the joints are then the full QP's: none."""
+    from wbc.dynamics import AccelerationReference
+    from wbc.tasks import PostureTask
+
+    robot = robots("talos")
+    model = robot.model
+    ctrl, q, v = _standing(robot, joint_limits=False, torque_limit_scale=0.01, speed_margin=0.05)
+    frozen = AccelerationReference(PostureTask(robot), kp=0.0, kd=0.0, name="frozen")
+    frozen.set_target(robot.q_ref)
+    ctrl.qp.add_task(frozen, hard=True)
+    iw = model.joints[model.getJointId("arm_right_6_joint")].idx_v
+    v[iw] = 3.0 * float(model.velocityLimit[iw])
+    cmd = ctrl.solve(q, v)
+    H, g, A, b, C, l, u, lb, ub = ctrl.qp.assembled_qp()
+    assert not highs_feasible(A, b, C, l, u, lb, ub)
+    assert cmd.ok and cmd.relaxed, cmd.message
+    speed = ctrl.qp.joint_speed_limits
+    rlb, rub = ctrl.qp.chain.relaxed_bounds[2], ctrl.qp.chain.relaxed_bounds[3]
+    assert np.all(np.isneginf(lb[speed.indices])) and np.all(np.isposinf(ub[speed.indices]))
+    assert np.all(np.isneginf(rlb[speed.indices])) and np.all(np.isposinf(rub[speed.indices]))

@@ -159,7 +159,7 @@ class InverseDynamicsQP:
         self.friction = [FrictionPyramid(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.unilaterality = [Unilaterality(c, nv + 12 * k) for k, c in enumerate(self.contacts)]
         self.joint_acceleration_limits = JointAccelerationLimits(robot, braking_acceleration)
-        self.joint_speed_limits = None  # optional JointSpeedBounds, kept by solve_relaxed at this QP's h and a_brk
+        self.joint_speed_limits = None  # optional JointSpeedBounds: with joint_limits, kept by solve_relaxed
         self.tau_max = self.torque_limits.tau_max
         r = 0
         for con in (self.torque_limits, *self.friction):
@@ -355,15 +355,15 @@ class InverseDynamicsQP:
                 l[con.rows], u[con.rows] = -np.inf, np.inf
             elif con.relaxable and con.kind == "bounds":
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
-        if state is not None and (sb := self.joint_speed_limits) is not None:  # not relaxable: the full QP's h and
-            jl, floor = self.joint_acceleration_limits, sb.braking  # at most its a_brk: a relaxation (joint_velocity)
+        if state is not None and self.joint_limits and (sb := self.joint_speed_limits) is not None:  # the full QP's h
+            jl, floor = self.joint_acceleration_limits, sb.braking  # and ≤ its a_brk: a relaxation (joint_velocity)
             sb.intersect(state.v, dt, lb, ub, horizon=jl.speed_horizon, braking=min(floor, jl.braking_acceleration))
         return l, u, lb, ub
 
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
-        the :attr:`joint_speed_limits` bounds kept. Same returns/raises as :meth:`solve`. ``reuse_assembly``: reuse
-        the arrays of this tick's failed full QP at this same ``state`` object and ``dt``."""
+        the :attr:`joint_speed_limits` bounds kept (when the full QP has (9): :attr:`joint_limits`). Same returns and
+        raises as :meth:`solve`. ``reuse_assembly``: reuse the arrays of this tick's failed full QP at this ``state``."""
         t0 = perf_counter()
         same_tick = reuse_assembly and self._assembled == (id(state), dt)
         H, g, A, b, C, l, u, lb, ub = self._qp_views[self._m] if same_tick else self.build(state, dt)
