@@ -363,7 +363,7 @@ class InverseDynamicsQP:
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:
         """Solve the QP without the relaxable constraints — joint acceleration bounds (9) and torque limits (6) —
         the :attr:`joint_speed_limits` bounds kept (when the full QP has (9): :attr:`joint_limits`). Same returns and
-        raises as :meth:`solve`. ``reuse_assembly``: reuse the arrays of this tick's failed full QP at this ``state``."""
+        raises as :meth:`solve`. ``reuse_assembly``: reuse the arrays of this tick's failed full QP at ``state``."""
         t0 = perf_counter()
         same_tick = reuse_assembly and self._assembled == (id(state), dt)
         H, g, A, b, C, l, u, lb, ub = self._qp_views[self._m] if same_tick else self.build(state, dt)
