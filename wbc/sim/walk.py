@@ -64,6 +64,7 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import FLOAT64, check_flag, check_scalar, mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
+from wbc.gait.leg_reach import STANCE_REACH_RATIO, leg_reaches
 from wbc.gait.commands import feet_can_yaw
 from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
@@ -235,6 +236,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         impact_window: s before a swing's planned touch-down (and after it, while the sole is in swing) in which
             the ID controller bounds the leg joints' speeds after the impact of that sole, flat or on a corner
             (:class:`wbc.constraints.impact.ImpactSpeedBounds`, added to its QP at :meth:`setup`); 0: off.
+        reach_ratio: ρ in (0, 1], or None (off): a swing whose time the step timing QP adapts touches down no later
+            than the stance leg's hip-to-ankle distance reaches ρ × the leg's stretched length on the LIPM
+            (:func:`wbc.gait.leg_reach.stance_reach_time`; default :data:`wbc.gait.leg_reach.STANCE_REACH_RATIO`);
+            :attr:`reach_cuts` counts the swings whose time it set.
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -267,8 +272,13 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  stabilizer_gains: dict | None = None, terrain=None, base_weight: float = 3.0,
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
                  swing_froude: float | None = None, swing_height_weight: float | None = None,
-                 hurry_double_support: bool = True, impact_window: float = 0.04):
+                 hurry_double_support: bool = True, impact_window: float = 0.04,
+                 reach_ratio: float | None = STANCE_REACH_RATIO):
         from wbc.terrain import parse_terrain
+        if reach_ratio is not None and not (check_scalar(reach_ratio, "reach_ratio", "of the leg's length",
+                                                         strict=True) <= 1.0):
+            raise InvalidInputError(f"reach_ratio must be a number in (0, 1] or None, got {reach_ratio!r}")
+        self.reach_ratio = None if reach_ratio is None else float(reach_ratio)
         self.hurry_double_support = check_flag(hurry_double_support, "hurry_double_support")
         self.impact_window = check_scalar(impact_window, "impact_window", "s")
         self.contact_thresholds = contact_events_option(contact_events)
@@ -521,6 +531,10 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._log_rows = tuple(self.log[key] for key in ("phase", "dcm", "dcm_ref", "cop_cmd", "sole_xy", "sole_yaw"))
         self._k = 0
         self._pushing = False
+        #: the legs' hips, ankles and lengths (wbc.gait.leg_reach) when the step timing keeps the stance leg's reach
+        self._legs = leg_reaches(robot) if self.reach_ratio is not None else None
+        #: swings whose touch-down time the stance leg's reach brought forward (_step_timing)
+        self.reach_cuts = 0
 
     def _capture_plan(self, plan, q, v):
         """The plan from rest ``plan`` replanned from the measured CoM state, its first step placed from the

@@ -13,6 +13,7 @@ from wbc.constraints.impact import ImpactSpeedBounds
 from wbc.exceptions import GaitError
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
+from wbc.gait.leg_reach import stance_reach_time
 from wbc.gait.step_adjustment import StretchLimits
 from wbc.geometry import convex_hull, polygon_margin, projected_sole_corners
 from wbc.sim.scenarios import timed_push
@@ -181,7 +182,8 @@ class WalkSteps:
         :meth:`StepAdjuster.correction <wbc.gait.step_adjustment.StepAdjuster.correction>`), the nominal values
         of the plan at the swing's start (its footstep, single-support time and DCM offset, whatever was cut
         since), the reach around the ``stance`` sole, and ``T`` between the current touch-down time (cuts only
-        shorten) and the earliest time at which the ``foot`` (x, y) still reaches the landing at
+        shorten; no later than the stance leg's reach ends, ``reach_ratio``) and the earliest time at which the
+        ``foot`` (x, y) still reaches the landing at
         ``max_swing_speed`` (after ``descent`` s of vertical descent, blind), at least ``min_time_left`` s from
         now. ``target`` (the landing of eq. 1, clipped) and no cut when the QP's time is less than 0.02 s before
         the current one: the QP's landing with the time held is that landing (its DCM offset weighted so much more
@@ -201,6 +203,13 @@ class WalkSteps:
         bn = self.timing_qp.nominal_offset(xi_ref, u0, un, t_nom - t)
         land = np.array([target.x, target.y])
         sol = None
+        t_max = t_cur
+        if self._legs is not None:  # no later than the stance leg's reach ends (wbc.gait.leg_reach)
+            leg = self._legs["right" if fs0.side == "left" else "left"]
+            t_max = min(t_cur, t + stance_reach_time(self._com_view, self._vcom_view, self.plan.omega,
+                                                     self._data.oMi[leg.hip].translation,
+                                                     self._data.oMi[leg.ankle].translation,
+                                                     self.reach_ratio * leg.length))
         for _ in range(2):  # the earliest landing time depends on the landing: once more from the QP's landing
             t_min = t + max(self.min_time_left, descent + float(np.linalg.norm(foot - land)) / self.max_swing_speed)
             if t_min >= t_cur - 0.02:  # (no cut the foot can travel)
@@ -209,7 +218,7 @@ class WalkSteps:
             try:
                 sol = self.timing_qp.solve(xi_b, stance=stance, stance_cop=u0, swing_left=fs0.side == "left",
                                            elapsed=t, landing_nom=un, duration_nom=t_nom, offset_nom=bn,
-                                           t_min=t_min, t_max=t_cur)
+                                           t_min=t_min, t_max=(t_hi := max(t_max, t_min + 0.02)))
             except GaitError:  # (DAQP's exit flag: the time held, the landing of eq. 1)
                 self.replan_failures += 1
                 return target, 0
@@ -219,9 +228,13 @@ class WalkSteps:
         skip = 0 if sol is None else int(round((t_cur - sol.duration) / dt))
         if skip * dt < 0.02 - 1e-9:
             return target, 0
+        if t_max < t_cur and sol.duration >= t_hi - 1e-6 and self._reach_cut != idx:  # the reach set the time
+            self.reach_cuts, self._reach_cut = self.reach_cuts + 1, idx
         moved = Footstep(fs0.side, float(sol.landing[0]), float(sol.landing[1]), fs0.yaw)
         return self.adjuster.landing(moved, stance, np.zeros(2)), skip
 
+    _legs = None  # wbc.gait.leg_reach.leg_reaches of the robot when reach_ratio is set (WalkScenario.setup)
+    _reach_cut = -1  # the last swing whose time the stance leg's reach cut (_step_timing's count of reach_cuts)
     _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
 
     def _impact_setup(self, controller, robot) -> None:
