@@ -38,8 +38,7 @@ from wbc.exceptions import InvalidInputError
 __all__ = ["LegReach", "STANCE_REACH_RATIO", "leg_reaches", "stance_reach_time"]
 
 #: ρ: the fraction of a leg's full length r_max (hip to ankle, knee straight) at which the stance leg's reach ends
-#: (module docstring): 0.97 (Talos: knee at 0.45 rad). Chosen on campaign seed 9408 (benchmarks/records/67: 0.97
-#: against none), checked on seed 9407.
+#: (module docstring): 0.97 (Talos: knee at 0.45 rad), chosen on a push campaign (benchmarks/records/67).
 STANCE_REACH_RATIO = 0.97
 
 
