@@ -275,23 +275,16 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  hurry_double_support: bool = True, impact_window: float = 0.04,
                  reach_ratio: float | None = STANCE_REACH_RATIO):
         from wbc.terrain import parse_terrain
-        if reach_ratio is not None and not (check_scalar(reach_ratio, "reach_ratio", "of the leg's length",
-                                                         strict=True) <= 1.0):
+        if reach_ratio is not None and not check_scalar(reach_ratio, "reach_ratio", "of the leg", strict=True) <= 1:
             raise InvalidInputError(f"reach_ratio must be a number in (0, 1] or None, got {reach_ratio!r}")
         self.reach_ratio = None if reach_ratio is None else float(reach_ratio)
         self.hurry_double_support = check_flag(hurry_double_support, "hurry_double_support")
         self.impact_window = check_scalar(impact_window, "impact_window", "s")
         self.contact_thresholds = contact_events_option(contact_events)
         self.terrain = None if terrain is None else parse_terrain(terrain)
-        if isinstance(base_weight, bool) or not isinstance(base_weight, (int, float)) \
-                or not (math.isfinite(base_weight) and base_weight >= 0):
-            raise InvalidInputError(f"base_weight must be a finite number ≥ 0, got {base_weight!r}")
-        self.base_weight = float(base_weight)
-        swing_froude = SWING_FROUDE if swing_froude is None else swing_froude
-        if isinstance(swing_froude, bool) or not isinstance(swing_froude, (int, float)) \
-                or not (math.isfinite(swing_froude) and swing_froude > 0):
-            raise InvalidInputError(f"swing_froude must be a finite number > 0, got {swing_froude!r}")
-        self.swing_froude = float(swing_froude)
+        self.base_weight = check_scalar(base_weight, "base_weight", "task weight")
+        self.swing_froude = check_scalar(SWING_FROUDE if swing_froude is None else swing_froude, "swing_froude",
+                                         "Froude number", strict=True)
         # late touch-down: how far (m) below its planned landing the swing foot may descend (terrain: the
         # estimated heights drift by centimetres, touch-down is then detected by the F/T force)
         self.blind = bool(blind)
@@ -323,12 +316,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         #: (2, 6) ground reactions (N, N·m) of the (left, right) soles at their origins, sole axes, measured by the
         #: ankle F/T sensors; set by the closed loop every tick on an estimated state (None: not measured)
         self.measured_wrench = None
-        if not (np.isfinite(step_duration) and step_duration > 0.2):
-            raise InvalidInputError(f"step_duration must be finite and > 0.2 s, got {step_duration!r}")
-        if not (np.isfinite(max_swing_speed) and max_swing_speed > 0):
-            raise InvalidInputError(f"max_swing_speed must be finite and > 0 m/s, got {max_swing_speed!r}")
-        if not (np.isfinite(push) and push >= 0):
-            raise InvalidInputError(f"push force must be finite and ≥ 0 N, got {push!r}")
+        check_scalar(step_duration, "step_duration", "s", minimum=0.2, strict=True)
+        check_scalar(max_swing_speed, "max_swing_speed", "m/s", strict=True)
+        check_scalar(push, "push force", "N")
         if swing_height_weight is not None and not (np.isfinite(swing_height_weight) and swing_height_weight > 0):
             raise InvalidInputError(f"swing_height_weight must be a finite ratio > 0 (1: the swing foot's height "
                                     f"weighs as its horizontal position) or None, got {swing_height_weight!r}")
@@ -531,10 +521,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._log_rows = tuple(self.log[key] for key in ("phase", "dcm", "dcm_ref", "cop_cmd", "sole_xy", "sole_yaw"))
         self._k = 0
         self._pushing = False
-        #: the legs' hips, ankles and lengths (wbc.gait.leg_reach) when the step timing keeps the stance leg's reach
-        self._legs = leg_reaches(robot) if self.reach_ratio is not None else None
-        #: swings whose touch-down time the stance leg's reach brought forward (_step_timing)
-        self.reach_cuts = 0
+        self._legs = leg_reaches(robot) if self.reach_ratio is not None else None  # (WalkSteps._step_timing)
+        self.reach_cuts = 0  # swings whose touch-down time the stance leg's reach brought forward
 
     def _capture_plan(self, plan, q, v):
         """The plan from rest ``plan`` replanned from the measured CoM state, its first step placed from the
