@@ -1,4 +1,4 @@
-"""The stance leg's reach bounds the step time (wbc.gait.leg_reach in WalkScenario's step timing), closed loop in
+"""The stance leg's reach bounds the step time (wbc.gait.stance_reach in WalkScenario's step timing), closed loop in
 MuJoCo on the push campaign's realistic plant and estimated state: trial 10 of the default push campaign with seed
 9408 (429 N for 0.1 s towards 333°). Without the bound the right knee passes its URDF speed limit (1.155×,
 benchmarks/records/67); with it the step lands before the stance leg is stretched and no joint passes its limit

@@ -64,7 +64,7 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.geometry import FLOAT64, check_flag, check_scalar, mean_heading
 from wbc.gait import Footstep, plan_walk
 from wbc.gait.blind import BLIND_XY_END, blind_swing_into
-from wbc.gait.leg_reach import STANCE_REACH_RATIO, leg_reaches
+from wbc.gait.stance_reach import STANCE_REACH_RATIO, stance_legs
 from wbc.gait.commands import feet_can_yaw
 from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
@@ -238,8 +238,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             (:class:`wbc.constraints.impact.ImpactSpeedBounds`, added to its QP at :meth:`setup`); 0: off.
         reach_ratio: ρ in (0, 1], or None (off): a swing whose time the step timing QP adapts touches down no later
             than the stance leg's hip-to-ankle distance reaches ρ × the leg's stretched length on the LIPM
-            (:func:`wbc.gait.leg_reach.stance_reach_time`; default :data:`wbc.gait.leg_reach.STANCE_REACH_RATIO`);
-            :attr:`reach_cuts` counts the swings whose time it set.
+            (:func:`wbc.gait.stance_reach.stance_reach_time`; default
+            :data:`~wbc.gait.stance_reach.STANCE_REACH_RATIO`); :attr:`reach_cuts` counts the swings whose time it set.
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -521,7 +521,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._log_rows = tuple(self.log[key] for key in ("phase", "dcm", "dcm_ref", "cop_cmd", "sole_xy", "sole_yaw"))
         self._k = 0
         self._pushing = False
-        self._legs = leg_reaches(robot) if self.reach_ratio is not None else None  # (WalkSteps._step_timing)
+        self._legs = stance_legs(robot) if self.reach_ratio is not None else None  # (WalkSteps._step_timing)
         self.reach_cuts = 0  # swings whose touch-down time the stance leg's reach brought forward
 
     def _capture_plan(self, plan, q, v):

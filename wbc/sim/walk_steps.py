@@ -13,7 +13,7 @@ from wbc.constraints.impact import ImpactSpeedBounds
 from wbc.exceptions import GaitError
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
-from wbc.gait.leg_reach import stance_reach_time
+from wbc.gait.stance_reach import stance_reach_time
 from wbc.gait.step_adjustment import StretchLimits
 from wbc.geometry import convex_hull, polygon_margin, projected_sole_corners
 from wbc.sim.scenarios import timed_push
@@ -204,7 +204,7 @@ class WalkSteps:
         land = np.array([target.x, target.y])
         sol = None
         t_max = t_cur
-        if self._legs is not None:  # no later than the stance leg's reach ends (wbc.gait.leg_reach)
+        if self._legs is not None:  # no later than the stance leg's reach ends (wbc.gait.stance_reach)
             leg = self._legs["right" if fs0.side == "left" else "left"]
             t_max = min(t_cur, t + stance_reach_time(self._com_view, self._vcom_view, self.plan.omega,
                                                      self._data.oMi[leg.hip].translation,
@@ -233,7 +233,7 @@ class WalkSteps:
         moved = Footstep(fs0.side, float(sol.landing[0]), float(sol.landing[1]), fs0.yaw)
         return self.adjuster.landing(moved, stance, np.zeros(2)), skip
 
-    _legs = None  # wbc.gait.leg_reach.leg_reaches of the robot when reach_ratio is set (WalkScenario.setup)
+    _legs = None  # wbc.gait.stance_reach.stance_legs of the robot when reach_ratio is set (WalkScenario.setup)
     _reach_cut = -1  # the last swing whose time the stance leg's reach cut (_step_timing's count of reach_cuts)
     _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
 

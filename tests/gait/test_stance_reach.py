@@ -1,4 +1,4 @@
-"""The stance leg's reach (wbc.gait.leg_reach). References: the LIPM c̈ = ω² (c − a) integrated numerically with
+"""The stance leg's reach (wbc.gait.stance_reach). References: the LIPM c̈ = ω² (c − a) integrated numerically with
 scipy's solve_ivp and its event r(t) = R (not the quartic the module solves); the leg's length summed from
 Pinocchio's joint placements of Talos's knee and ankle (not the forward kinematics the module reads); typed errors."""
 
@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from wbc.exceptions import InvalidInputError
-from wbc.gait.leg_reach import STANCE_REACH_RATIO, leg_reaches, stance_reach_time
+from wbc.gait.stance_reach import STANCE_REACH_RATIO, stance_legs, stance_reach_time
 
 OMEGA = math.sqrt(9.81 / 0.877)
 
@@ -70,7 +70,7 @@ def test_typed_errors(bad):
 def test_talos_legs_are_thigh_plus_shank(robots):
     robot = robots("talos")
     model = robot.model
-    legs = leg_reaches(robot)
+    legs = stance_legs(robot)
     for side in ("left", "right"):
         knee, ankle = (model.getJointId(f"leg_{side}_{i}_joint") for i in (4, 5))
         # the hip joints 1–3 share one origin: thigh = |hip pitch → knee|, shank = |knee → ankle pitch|

@@ -35,23 +35,23 @@ import pinocchio as pin
 
 from wbc.exceptions import InvalidInputError
 
-__all__ = ["LegReach", "STANCE_REACH_RATIO", "leg_reaches", "stance_reach_time"]
+__all__ = ["StanceLeg", "STANCE_REACH_RATIO", "stance_legs", "stance_reach_time"]
 
 #: ρ: the fraction of a leg's full length r_max (hip to ankle, knee straight) at which the stance leg's reach ends
 #: (module docstring): 0.97 (Talos: knee at 0.45 rad), chosen on a push campaign (benchmarks/records/67).
 STANCE_REACH_RATIO = 0.97
 
 
-class LegReach(NamedTuple):
-    """One leg of :func:`leg_reaches`."""
+class StanceLeg(NamedTuple):
+    """One leg of :func:`stance_legs`."""
 
     hip: int      #: Pinocchio joint index of the leg's first joint below the floating base (its ``oMi`` is the hip)
     ankle: int    #: joint index of the sole frame's parent joint (its ``oMi`` is the ankle)
     length: float  #: r_max (m): the hip-to-ankle distance with the leg stretched
 
 
-def leg_reaches(robot) -> dict[str, LegReach]:
-    """``{"left", "right"}`` → :class:`LegReach` of the robot's legs (the joints from the floating base to each sole
+def stance_legs(robot) -> dict[str, StanceLeg]:
+    """``{"left", "right"}`` → :class:`StanceLeg` of the robot's legs (the joints from the floating base to each sole
     frame). ``length`` is the longest path hip → joint → ankle over the leg's joints at ``robot.q_ref`` (thigh +
     shank when the joint is the knee), so it does not depend on the posture the robot file calls neutral.
 
@@ -70,7 +70,7 @@ def leg_reaches(robot) -> dict[str, LegReach]:
         ph, pa = data.oMi[chain[0]].translation, data.oMi[ankle].translation
         length = max(float(np.linalg.norm(data.oMi[j].translation - ph) + np.linalg.norm(pa - data.oMi[j].translation))
                      for j in chain)
-        out[side] = LegReach(chain[0], ankle, length)
+        out[side] = StanceLeg(chain[0], ankle, length)
     return out
 
 
