@@ -14,7 +14,7 @@ from wbc.constraints.base import IDConstraint
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
 from wbc.constraints.torque_limits import torque_limit_rows
-from wbc.exceptions import InvalidInputError
+from wbc.geometry import check_scalar
 from wbc.robot import Robot
 from wbc.state import DynamicsState
 
@@ -72,10 +72,7 @@ class JointAccelerationLimits(IDConstraint):
 
     @braking_acceleration.setter
     def braking_acceleration(self, value) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not (
-                np.isfinite(value) and value > 0):
-            raise InvalidInputError(f"braking_acceleration must be a finite number > 0 (rad/s²), got {value!r}")
-        self._braking = float(value)
+        self._braking = check_scalar(value, "braking_acceleration", "rad/s²", strict=True)
 
     @property
     def speed_horizon(self) -> float:
@@ -84,10 +81,7 @@ class JointAccelerationLimits(IDConstraint):
 
     @speed_horizon.setter
     def speed_horizon(self, value) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not (
-                np.isfinite(value) and value >= 1):
-            raise InvalidInputError(f"speed_horizon must be a finite number of ticks ≥ 1, got {value!r}")
-        self._horizon = float(value)
+        self._horizon = check_scalar(value, "speed_horizon", "ticks", minimum=1.0)
 
     def bounds(self, state: DynamicsState, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (dim,) at ``state`` (arrays reused across calls): :func:`joint_acceleration_bounds`."""
