@@ -23,7 +23,10 @@ from wbc.cli import main
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-                 "--disable-background-networking", "--disable-component-update", "--no-first-run"]
+                 "--disable-background-networking", "--disable-component-update", "--no-first-run",
+                 # no name lookups at all (the pages are file:, data: and http://127.0.0.1): a DNS socket of a
+                 # lingering browser process fails the ROS 2 tests' loopback guard in the same pytest worker
+                 "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"]
 WAIT_MS = 300_000  # page-state waits: generous, a loaded machine renders slowly
 
 if not Path(CHROMIUM).exists() or importlib.util.find_spec("playwright") is None:

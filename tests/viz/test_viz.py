@@ -27,7 +27,10 @@ RIGHT_JOINTS = {"arm_right_1_joint": 0.4, "arm_right_2_joint": -0.5, "arm_right_
                 "leg_right_1_joint": 0.3, "leg_right_3_joint": -0.5, "leg_right_4_joint": 0.8}
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-                 "--disable-background-networking", "--disable-component-update", "--no-first-run"]
+                 "--disable-background-networking", "--disable-component-update", "--no-first-run",
+                 # no name lookups at all (the pages are file:, data: and http://127.0.0.1): a DNS socket of a
+                 # lingering browser process fails the ROS 2 tests' loopback guard in the same pytest worker
+                 "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"]
 
 
 @pytest.fixture(scope="module")
