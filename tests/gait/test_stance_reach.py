@@ -83,3 +83,17 @@ def test_talos_legs_are_thigh_plus_shank(robots):
         assert leg.length == pytest.approx(thigh + shank, abs=1e-9)
         assert leg.length == pytest.approx(0.705, abs=1e-3)
     assert 0.0 < STANCE_REACH_RATIO <= 1.0
+
+
+@pytest.mark.parametrize("field", ["com", "com_velocity", "hip", "ankle"])
+def test_non_finite_or_short_positions_are_typed_errors(field):
+    args = {"com": np.array([0.1, 0.0, 0.88]), "com_velocity": np.zeros(3), "hip": np.array([0.1, 0.0, 0.7]),
+            "ankle": np.array([0.0, 0.0, 0.1])}
+    bad = args[field].copy()
+    bad[0] = np.nan
+    with pytest.raises(InvalidInputError, match="finite"):
+        stance_reach_time(args["com"] if field != "com" else bad, args["com_velocity"] if field != "com_velocity"
+                          else bad, OMEGA, args["hip"] if field != "hip" else bad,
+                          args["ankle"] if field != "ankle" else bad, 0.6)
+    with pytest.raises(InvalidInputError, match="finite"):
+        stance_reach_time(np.zeros(1), np.zeros(3), OMEGA, args["hip"], args["ankle"], 0.6)

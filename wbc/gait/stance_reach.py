@@ -16,13 +16,13 @@ quartic
 whose least real root ``x ≥ 1`` gives the time ``t = ln x / ω`` (0 when ``r ≥ R`` already, ∞ when it never comes).
 
 **Why it bounds the step time.** Near full extension a leg's knee turns fast for a small change of its length: with
-thigh ``l₁``, shank ``l₂`` and knee angle θ (0: straight), ``r² = l₁² + l₂² + 2 l₁ l₂ cos θ`` and
-``ṙ = −l₁ l₂ sin θ θ̇ / r``: at θ = 0.3 rad (Talos: r = 0.98 r_max) a leg lengthening at 0.3 m/s turns its knee at
-about its 7 rad/s limit. A push that carries the CoM away from the stance foot while the swing is long stretches the
-stance leg to its end; the robot then drops onto the landing leg, whose knee, and the stance knee braking at its
-position limit, pass their speed limits (benchmarks/records/67). :class:`~wbc.sim.walk.WalkScenario` therefore
-lands a swing whose step time the QP of :mod:`wbc.gait.step_timing` adapts no later than the stance leg reaches
-``R = ρ r_max`` (its ``reach_ratio`` ρ, :data:`STANCE_REACH_RATIO`).
+thigh ``l₁``, shank ``l₂`` and knee angle θ (0: straight), ``r² = l₁² + l₂² + 2 l₁ l₂ cos θ`` and ``ṙ = −l₁ l₂ sin θ θ̇
+/ r``: at θ = 0.3 rad (Talos, l₁ = 0.38 m, l₂ = 0.325 m: r = 0.99 r_max) the knee at its 7 rad/s limit lengthens the leg
+by only 0.37 m/s. A push that carries the CoM away from the stance foot while the swing is long stretches the stance leg
+to its end; the robot then drops onto the landing leg, whose knee, and the stance knee braking at its position limit,
+pass their speed limits (benchmarks/records/67). :class:`~wbc.sim.walk.WalkScenario` therefore lands a swing whose step
+time the QP of :mod:`wbc.gait.step_timing` adapts no later than the stance leg reaches ``R = ρ r_max`` (its
+``reach_ratio`` ρ, :data:`STANCE_REACH_RATIO`).
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from wbc.exceptions import InvalidInputError
 __all__ = ["StanceLeg", "STANCE_REACH_RATIO", "stance_legs", "stance_reach_time"]
 
 #: ρ: the fraction of a leg's full length r_max (hip to ankle, knee straight) at which the stance leg's reach ends
-#: (module docstring): 0.97 (Talos: knee at 0.45 rad), chosen on a push campaign (benchmarks/records/67).
+#: (module docstring): 0.97 (Talos: knee at 0.49 rad), chosen by hand, not swept (benchmarks/records/67).
 STANCE_REACH_RATIO = 0.97
 
 
@@ -85,19 +85,22 @@ def stance_reach_time(com, com_velocity, omega: float, hip, ankle, reach: float)
         reach: R (m, > 0).
 
     Raises:
-        InvalidInputError: ω or R not a finite number > 0.
+        InvalidInputError: ω or R not a finite number > 0; a position or velocity not finite or too short.
     """
     if not (math.isfinite(omega) and omega > 0 and math.isfinite(reach) and reach > 0):
         raise InvalidInputError(f"omega and reach must be finite numbers > 0, got {omega!r}, {reach!r}")
-    a = np.asarray(ankle, float)
-    hp = np.asarray(hip, float)
-    c0 = np.asarray(com, float)[:2]
+    a, hp = np.asarray(ankle, float).ravel(), np.asarray(hip, float).ravel()
+    c0, cd = np.asarray(com, float).ravel()[:2], np.asarray(com_velocity, float).ravel()[:2]
+    if a.size < 3 or hp.size < 3 or c0.size < 2 or cd.size < 2 or not (
+            np.isfinite(a[:3]).all() and np.isfinite(hp[:3]).all() and np.isfinite(c0).all() and np.isfinite(cd).all()):
+        raise InvalidInputError(f"com, com_velocity (≥ 2 finite numbers), hip and ankle (≥ 3) expected, got {com!r}, "
+                                f"{com_velocity!r}, {hip!r}, {ankle!r}")
     d0 = c0 - a[:2]
     o = hp[:2] - c0
     h2 = float(hp[2] - a[2]) ** 2
     if float((d0 + o) @ (d0 + o)) + h2 >= reach * reach:
         return 0.0
-    w = np.asarray(com_velocity, float)[:2] / omega
+    w = cd / omega
     P, Q = 0.5 * (d0 + w), 0.5 * (d0 - w)
     roots = np.roots([P @ P, 2.0 * P @ o, o @ o + 2.0 * P @ Q + h2 - reach * reach, 2.0 * Q @ o, Q @ Q])
     real = roots.real[(np.abs(roots.imag) <= 1e-9 * np.maximum(1.0, np.abs(roots))) & (roots.real >= 1.0)]
