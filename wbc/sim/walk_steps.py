@@ -265,7 +265,7 @@ class WalkSteps:
         qp.add_constraint(self._impact)
         if self.impact_excess_weight > 0:
             qp.add_task(AccelerationReference(ImpactSpeedExcess(self._impact, self.impact_excess_weight), kp=0.0,
-                                              kd=1.0 / (js.horizon * self.dt), weight=self.impact_excess_weight))
+                                              kd=1.0 / (js.horizon * controller.dt), weight=self.impact_excess_weight))
 
     def _impact_expect(self, tp: float) -> None:
         """Tell the impact bounds (:meth:`_impact_setup`) which sole may touch down at plan time ``tp`` (s): a sole
