@@ -2,7 +2,8 @@
 (``pin.impulseDynamics``, an inelastic impact on the stacked sole Jacobians, restitution 0) at any velocity, the
 post-impact velocity is contact-consistent and the M-orthogonal projection of the pre-impact one, l ≤ C x ≤ u holds
 exactly when every bounded joint's post-impact rate (at v + v̇ h dt) is within s q̇_max, the rows are free with no
-touch-down expected, and bad input raises typed errors."""
+touch-down expected, and bad input raises typed errors; the excess rows (ImpactSpeedExcess) are the freed rows, and
+their least-squares answer brings each freed rate to its bound after the horizon (impulseDynamics again)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,10 @@ import pinocchio as pin
 import pytest
 
 from wbc.constraints.base import IDContext
-from wbc.constraints.impact import ImpactSpeedBounds
+from wbc.constraints.impact import ImpactSpeedBounds, ImpactSpeedExcess
 from wbc.dynamics import DynamicsState
 from wbc.exceptions import InvalidInputError, UnknownFrameError
+from wbc.formulations.reference import AccelerationReference
 
 DT = 0.002
 #: the rows' post-impact velocity against Pinocchio's impulse dynamics, relative to the largest rate (two
@@ -150,3 +152,53 @@ def test_corner_rows_are_point_impacts_at_the_sole_corners(robots, support):
         v_after = pin.impulseDynamics(model, data, q, v, np.vstack([Jp, *left]), 0.0, 0.0)
         rows = P[12 * (k + 1):12 * (k + 2)]
         assert np.abs(rows @ v - v_after[con.joints]).max() <= REL_TOL * np.abs(v_after[con.joints]).max()
+
+
+def _post_impact(robot, q, v, sides):
+    """The bounded joints' rates after an inelastic impact on the soles ``sides`` (Pinocchio's impulseDynamics)."""
+    model, data = robot.model, robot.model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    J = np.vstack([pin.getFrameJacobian(model, data, robot.frame_id(getattr(robot, f"{s}_sole")), pin.LOCAL)
+                   for s in sides])
+    return pin.impulseDynamics(model, data, q, v, J, 0.0, 0.0)
+
+
+def test_excess_rows_are_the_freed_rows_pulled_back_to_their_bound(robots):
+    """ImpactSpeedExcess has the rows the bounds free (post-impact rates past s q̇_max at v̇ = 0) and no other; with
+    Kp = 0 and Kd = 1/(h dt), the v̇ that meets its rows puts each of those rates at its bound after the horizon."""
+    robot = robots("talos")
+    _, q, v = _state(robot, 83)
+    h = 4.0
+    con = ImpactSpeedBounds(robot, _soles(robot), margin=0.1, horizon=h)
+    con.expect("left", ("right",))
+    joints, vmax = con.joints, 0.9 * robot.model.velocityLimit[con.joints]
+    scale = 1.0 / np.median(np.abs(_post_impact(robot, q, v, ("left", "right"))[joints]) / vmax)  # half past
+    fast = DynamicsState(robot, q, v * scale)
+    post = _post_impact(robot, q, v * scale, ("left", "right"))[joints]
+    past = np.abs(post) > vmax
+    assert 0 < past.sum() < past.size
+    _, l, u = _write(con, fast, None)
+    assert np.array_equal(np.isinf(u), past)  # (the rows the bounds free)
+    task = ImpactSpeedExcess(con, weight=2.0)
+    J, r = AccelerationReference(task, kp=0.0, kd=1.0 / (h * DT)).compute(fast)
+    assert np.array_equal(task.past, past)
+    assert np.all(J[~past] == 0.0) and np.all(r[~past] == 0.0)
+    dv = np.linalg.lstsq(J[past], r[past], rcond=None)[0]
+    after = _post_impact(robot, q, v * scale + dv * h * DT, ("left", "right"))[joints]
+    assert np.abs(after[past] - np.sign(post[past]) * vmax[past]).max() <= REL_TOL * np.abs(post).max()
+    con.expect(None)
+    J, r = AccelerationReference(task, kp=0.0, kd=1.0 / (h * DT)).compute(fast)
+    assert np.all(J == 0.0) and np.all(r == 0.0) and not task.past.any()
+
+
+def test_excess_typed_errors(robots):
+    robot = robots("talos")
+    with pytest.raises(InvalidInputError):
+        ImpactSpeedExcess(object())
+    con = ImpactSpeedBounds(robot, _soles(robot))
+    with pytest.raises(InvalidInputError):
+        ImpactSpeedExcess(con, weight=-1.0)
+    task = ImpactSpeedExcess(con, weight=1.0)
+    with pytest.raises(InvalidInputError):
+        task.weight = np.full(con.dim + 1, 1.0)

@@ -6,6 +6,12 @@ talos``; realistic plant, estimated state): 373 N for 0.1 s towards 252° (back-
 touch-down drives the right hip yaw to 1.25× its URDF speed limit in the plant (MuJoCo's joint velocities; the trial
 fails on it, measured); with them, the walk survives with every plant joint within its limit. The thresholds below
 are written here, not read from the code under test.
+
+Trial 206 of campaign 9409 (same spec and seed scheme; 347 N for 0.1 s towards 245°): the right sole lands on its
+outer edge while the pelvis turns, and the heel corners' impact models predict the right hip yaw past its limit from
+the window's first tick, so the bounds free those rows. Without their soft form
+(:class:`wbc.constraints.impact.ImpactSpeedExcess`, ``WalkSteps.impact_excess_weight``) the hip yaw passes its limit
+at the impact (1.30×, record 68); with it no plant joint passes its limit.
 """
 
 from __future__ import annotations
@@ -13,10 +19,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wbc.campaign.spec import load_spec
+from wbc.campaign.spec import load_spec, trial_params
 from wbc.campaign.trials import walk_trial
+import wbc.sim.scenarios as scenarios
+from wbc.constraints.impact import ImpactSpeedExcess
 from wbc.exceptions import InvalidInputError
 from wbc.sim.walk import WalkScenario
+from wbc.sim.walk_steps import WalkSteps
 
 SPEC = {"kind": "push", "seed": 9405, "trials": 1000,
         "factors": {"direction_deg": [0.0, 360.0], "force": [300.0, 500.0], "phase": [0.0, 1.0],
@@ -43,6 +52,44 @@ def test_the_bounds_keep_the_landing_leg_within_its_speed_limits(trial_160):
     assert on["solver_failures"] == 0
 
 
+def _trial_206(monkeypatch, weight):
+    """(row, (nv − 6,) largest plant speed ratios, the right hip yaw's index, per tick the excess rows pulled)."""
+    monkeypatch.setattr(WalkSteps, "impact_excess_weight", weight)
+    runs, pulled = [], []
+    original, rows = scenarios.run_scenario, ImpactSpeedExcess.compute_with_drift_into
+
+    def keep(sim, controller, scenario, **kw):
+        run, summary = original(sim, controller, scenario, **kw)
+        runs.append((run, controller))
+        return run, summary
+
+    def count(task, state, *out):
+        rows(task, state, *out)
+        pulled.append(int(task.past.sum()))
+
+    monkeypatch.setattr(scenarios, "run_scenario", keep)
+    monkeypatch.setattr(ImpactSpeedExcess, "compute_with_drift_into", count)
+    spec = load_spec({**SPEC, "seed": 9409})
+    row = walk_trial(spec, trial_params(spec, 206))
+    run, controller = runs[0]
+    model = controller.robot.model
+    ratio = np.abs(run.v[:, 6:]).max(axis=0) / model.velocityLimit[6:]
+    return row, ratio, model.joints[model.getJointId("leg_right_1_joint")].idx_v - 6, pulled
+
+
+def test_without_the_excess_cost_the_landing_hip_yaw_passes_its_speed_limit(monkeypatch):
+    row, ratio, hip_yaw, pulled = _trial_206(monkeypatch, 0.0)
+    assert pulled == []  # (no such task in the QP)
+    assert ratio[hip_yaw] > 1.1 and not row["survived"]
+
+
+def test_with_it_no_joint_passes_its_limit(monkeypatch):
+    row, ratio, hip_yaw, pulled = _trial_206(monkeypatch, 10.0)
+    assert sum(n > 0 for n in pulled) >= 10  # ticks with a post-impact rate past its bound, pulled back
+    assert ratio.max() < 1.0
+    assert row["survived"] and not row["fell"]
+
+
 def test_impact_window_must_be_a_duration():
     for bad in (-0.01, float("nan"), True, None, "0.04"):
         with pytest.raises(InvalidInputError, match="impact_window"):
@@ -66,3 +113,5 @@ def test_a_walk_without_the_bounds_frees_those_an_earlier_walk_left_on_the_contr
     again.setup(controller, sim, q, v)
     assert con.landing is None
     assert [c for c in controller.qp.extra_constraints if isinstance(c, ImpactSpeedBounds)] == [con]
+    excess = [t for t in controller.qp.tasks if isinstance(t.task, ImpactSpeedExcess)]
+    assert len(excess) == 1 and excess[0].task.bounds is con  # (added once, with the bounds)

@@ -25,6 +25,10 @@ as in :class:`wbc.constraints.joint_velocity.JointSpeedBounds`. A row whose post
 bound at v̇ = 0, which the body's own momentum can set, is freed (±∞): holding it would ask the QP for an
 acceleration it may not have within the horizon (on the ideal plant that made the solve fail). With no touch-down
 expected the rows are free (C = 0, ±∞). The constraint is relaxable: the relaxed solve drops it.
+
+:class:`ImpactSpeedExcess` is the soft form of the freed rows: each post-impact rate already past its bound becomes a
+weighted task row asking P_j v̇ = −(P_j v − clip(P_j v, ±s q̇_max))/(h dt), the rate back at its bound after the
+horizon, which the other tasks may outweigh (a hard row there left the QP no answer).
 """
 
 from __future__ import annotations
@@ -38,8 +42,9 @@ from scipy.linalg import cho_factor, cho_solve
 from wbc.constraints.base import IDConstraint
 from wbc.constraints.joint_velocity import speed_margins
 from wbc.exceptions import InvalidInputError
+from wbc.tasks.base import Task
 
-__all__ = ["ImpactSpeedBounds"]
+__all__ = ["ImpactSpeedBounds", "ImpactSpeedExcess"]
 
 
 class ImpactSpeedBounds(IDConstraint):
@@ -59,6 +64,7 @@ class ImpactSpeedBounds(IDConstraint):
 
     Attributes:
         joints: (n_joints,) velocity indices of the bounded joints. vmax: (n_joints,) s q̇_max (rad/s).
+        vmax_rows: (dim,) s q̇_max of every row (rad/s).
         corners: (4, 3) or (0, 3) corner positions in the sole frame (m).
         frame_ids: {sole name: Pinocchio frame index}.
         landing: name of the sole expected to touch down, or None (rows free). support: names of the soles down.
@@ -91,9 +97,10 @@ class ImpactSpeedBounds(IDConstraint):
         self.corners = np.array([[sx * robot.sole_length / 2, sy * robot.sole_width / 2, 0.0]
                                  for sx in (1, -1) for sy in (1, -1)]) if corners else np.zeros((0, 3))
         self.dim = self.n_joints * (1 + len(self.corners))
-        self._vmax_rows = np.tile(self.vmax, 1 + len(self.corners))  # s q̇_max of every row
+        self.vmax_rows = np.tile(self.vmax, 1 + len(self.corners))
         self._landing: str | None = None
         self._support: tuple[str, ...] = ()
+        self._rows_at: tuple = (None, None)  # (key, rows) of the last post_impact_rows (its state's q and contacts)
 
     @property
     def landing(self) -> str | None:
@@ -126,7 +133,12 @@ class ImpactSpeedBounds(IDConstraint):
 
         Every model's contact Jacobian is B J, J the landing and support soles' stacked (world-aligned) Jacobians and
         B a constant-size selection (a corner: [I, −[r]×] on the landing sole's rows), so one factorization of M and
-        one Y = M⁻¹ Jᵀ serve them all: P = I − Y Bᵀ (B J Y Bᵀ)⁻¹ B J."""
+        one Y = M⁻¹ Jᵀ serve them all: P = I − Y Bᵀ (B J Y Bᵀ)⁻¹ B J. P depends on q and the contacts only: the
+        rows of the last call are returned again (the same array, not to be written) for the same q and contacts
+        (the bounds and :class:`ImpactSpeedExcess` of one tick share them)."""
+        key = (self.landing, self.support, state.q.tobytes())
+        if self._rows_at[0] == key:
+            return self._rows_at[1]
         J = np.vstack([state.frame_jacobian(self.frame_ids[s]) for s in (self.landing, *self.support)])
         Y = cho_solve(cho_factor(state.M), J.T)  # M⁻¹ Jᵀ (nv, m)
         G, Yj = J @ Y, Y[self.joints]
@@ -145,6 +157,7 @@ class ImpactSpeedBounds(IDConstraint):
             out[self.n_joints:] = -(Yj @ Bt @ X).reshape(-1, state.v.size)
         for i in range(1 + len(self.corners)):
             out[i * self.n_joints + np.arange(self.n_joints), self.joints] += 1.0
+        self._rows_at = (key, out)
         return out
 
     def write(self, ctx, C, l, u):
@@ -158,7 +171,70 @@ class ImpactSpeedBounds(IDConstraint):
         hdt = self.horizon * ctx.dt
         C[:, :ctx.nv] = P
         C[:, ctx.nv:] = 0.0
-        np.divide(-self._vmax_rows - post, hdt, out=l)
-        np.divide(self._vmax_rows - post, hdt, out=u)
+        np.divide(-self.vmax_rows - post, hdt, out=l)
+        np.divide(self.vmax_rows - post, hdt, out=u)
         past = (l > 0.0) | (u < 0.0)  # a post-impact rate already past its bound at v̇ = 0: the row is freed
         l[past], u[past] = -np.inf, np.inf
+
+
+class ImpactSpeedExcess(Task):
+    """The post-impact rates of ``bounds`` already past their bound, pulled back by weighted rows (module docstring):
+    for each row r of ``bounds`` with |P_r v| > s q̇_max (a row the bounds free),
+
+        J_r = P_r,   ė*_r = clip(P_r v, ±s q̇_max),   e_r = 0,   J̇v taken as 0 (P held over the horizon, as the bounds do),
+
+    and zero rows elsewhere (no cost). In the inverse-dynamics QP as an
+    :class:`~wbc.formulations.reference.AccelerationReference` with Kp = 0 and Kd = 1/(h dt) (h: ``bounds.horizon``,
+    dt: the control period), a row asks P_r v̇ = −(P_r v − ė*_r)/(h dt). With no touch-down expected every row is
+    zero. Acceleration level only (P needs the mass matrix of a :class:`~wbc.state.DynamicsState`).
+
+    Args:
+        bounds: the :class:`ImpactSpeedBounds` whose rows and expected touch-down it follows.
+        weight: scalar or (bounds.dim,) cost weights, ≥ 0 ((rad/s²)⁻² per row).
+        name: label (default ``"impact_excess"``).
+
+    Attributes:
+        dim: bounds.dim. past: (dim,) bool, the rows past their bound at the last state (all False when none).
+
+    Raises:
+        InvalidInputError: ``bounds`` not an :class:`ImpactSpeedBounds`, a bad weight.
+    """
+
+    def __init__(self, bounds: ImpactSpeedBounds, weight=1.0, *, name: str = "impact_excess"):
+        if not isinstance(bounds, ImpactSpeedBounds):
+            raise InvalidInputError(f"{name}: bounds must be an ImpactSpeedBounds, got {type(bounds).__name__}")
+        self.bounds, self.dim = bounds, bounds.dim
+        super().__init__(gain=0.0, weight=weight, name=name)
+        self.past = np.zeros(self.dim, dtype=bool)
+        self._zero, self._ff = np.zeros(self.dim), np.zeros(self.dim)
+
+    def compute(self, config) -> tuple[np.ndarray, np.ndarray]:
+        """(zeros (dim,), J (dim, nv)) at ``config`` (a :class:`~wbc.state.DynamicsState`: P needs M)."""
+        J = np.empty((self.dim, config.v.size))
+        self.compute_with_drift_into(config, np.empty(self.dim), J, np.empty(self.dim))
+        return self._zero, J
+
+    def compute_with_drift_into(self, state, error_out, jac_out, drift_out) -> None:
+        """J (the past rows P_r, zeros elsewhere) into jac_out, zeros into error_out and drift_out, at ``state`` (a
+        :class:`~wbc.state.DynamicsState`); ė* for :meth:`feedforward`."""
+        error_out[:] = 0.0
+        drift_out[:] = 0.0
+        jac_out[:] = 0.0
+        self._ff[:] = 0.0
+        self.past[:] = False
+        b = self.bounds
+        if b.landing is not None:
+            P = b.post_impact_rows(state)
+            post = P @ state.v
+            np.greater(np.abs(post), b.vmax_rows, out=self.past)
+            if self.past.any():
+                jac_out[self.past] = P[self.past]
+                self._ff[self.past] = np.clip(post[self.past], -b.vmax_rows[self.past], b.vmax_rows[self.past])
+
+    def feedforward(self) -> np.ndarray:
+        """(dim,) ė*: the past rows' rates clipped to their bound (rad/s), zeros elsewhere."""
+        return self._ff
+
+    def drift(self, state) -> np.ndarray:
+        """(dim,) zeros (class docstring)."""
+        return self._zero

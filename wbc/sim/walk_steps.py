@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbc.constraints.impact import ImpactSpeedBounds
+from wbc.constraints.impact import ImpactSpeedBounds, ImpactSpeedExcess
 from wbc.exceptions import GaitError
+from wbc.formulations.reference import AccelerationReference
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
 from wbc.gait.stance_reach import stance_reach_time
@@ -236,12 +237,15 @@ class WalkSteps:
     _legs = None  # wbc.gait.stance_reach.stance_legs of the robot when reach_ratio is set (WalkScenario.setup)
     _reach_cut = -1  # the last swing whose time the stance leg's reach cut (_step_timing's count of reach_cuts)
     _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
+    #: weight of the post-impact rates past their bound (ImpactSpeedExcess, (rad/s²)⁻²), 0: those rows free
+    impact_excess_weight = 10.0
 
     def _impact_setup(self, controller, robot) -> None:
         """With ``impact_window`` > 0 and an ID controller with joint speed bounds: add
         :class:`~wbc.constraints.impact.ImpactSpeedBounds` (flat sole and its corners) to its QP, with the margins
-        and the horizon of its joint speed bounds — or take the one already there (a capture step's walk on the
-        same controller; with ``impact_window`` 0 that one's rows are set free and stay free)."""
+        and the horizon of its joint speed bounds, and their :class:`~wbc.constraints.impact.ImpactSpeedExcess` as a
+        task of weight :attr:`impact_excess_weight` (Kp 0, Kd 1/(h dt)) — or take the ones already there (a capture
+        step's walk on the same controller; with ``impact_window`` 0 their rows are set free and stay free)."""
         qp = getattr(controller, "qp", None)
         if qp is None or getattr(qp, "joint_speed_limits", None) is None:
             return
@@ -259,6 +263,9 @@ class WalkSteps:
         self._impact = ImpactSpeedBounds(robot, {"left": robot.left_sole, "right": robot.right_sole},
                                          np.clip(margin, 0.0, 0.99), js.horizon, corners=True)
         qp.add_constraint(self._impact)
+        if self.impact_excess_weight > 0:
+            qp.add_task(AccelerationReference(ImpactSpeedExcess(self._impact, self.impact_excess_weight), kp=0.0,
+                                              kd=1.0 / (js.horizon * controller.dt), weight=self.impact_excess_weight))
 
     def _impact_expect(self, tp: float) -> None:
         """Tell the impact bounds (:meth:`_impact_setup`) which sole may touch down at plan time ``tp`` (s): a sole
