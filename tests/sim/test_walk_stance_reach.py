@@ -3,8 +3,6 @@ MuJoCo on the push campaign's realistic plant and estimated state: trial 10 of t
 9408 (429 N for 0.1 s towards 333°). Without the bound the right knee passes its URDF speed limit (1.155×,
 benchmarks/records/67); with it the step lands before the stance leg is stretched and no joint passes its limit
 (the largest ratio 0.953×).
-Both walks run with the soft post-impact rows off (``WalkSteps.impact_excess_weight`` 0, record 68): they pull the
-landing knee back too (1.009× without the bound), and this test is about the bound alone.
 The speed ratios are the plant's joint velocities over the URDF limits, read here from the run's log."""
 
 import numpy as np
@@ -15,7 +13,6 @@ from wbc.campaign.trials import walk_trial
 import wbc.sim.scenarios as scenarios
 from wbc.exceptions import InvalidInputError
 from wbc.sim.walk import WalkScenario
-from wbc.sim.walk_steps import WalkSteps
 
 
 @pytest.mark.parametrize("bad", [0.0, -0.5, 1.01, float("nan"), float("inf"), True, "0.9"])
@@ -28,7 +25,6 @@ def test_reach_ratio_must_be_in_zero_one(bad):
 
 def _trial(monkeypatch, reach_ratio):
     monkeypatch.setitem(WalkScenario.__init__.__kwdefaults__, "reach_ratio", reach_ratio)
-    monkeypatch.setattr(WalkSteps, "impact_excess_weight", 0.0)
     runs = []
     original = scenarios.run_scenario
 
