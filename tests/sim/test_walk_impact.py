@@ -11,7 +11,8 @@ Trial 206 of campaign 9409 (same spec and seed scheme; 347 N for 0.1 s towards 2
 outer edge while the pelvis turns, and the heel corners' impact models predict the right hip yaw past its limit from
 the window's first tick, so the bounds free those rows. Without their soft form
 (:class:`wbc.constraints.impact.ImpactSpeedExcess`, ``WalkSteps.impact_excess_weight``) the hip yaw passes its limit
-at the impact (1.30×, record 68); with it no plant joint passes its limit.
+at the impact (1.30×, record 68); with it no plant joint passes its limit. The walk's default weight is 0 (off):
+at 10, walking push 9813 and the ideal-plant late push of tests/sim/test_walk.py fall (record 68).
 """
 
 from __future__ import annotations
@@ -96,12 +97,13 @@ def test_impact_window_must_be_a_duration():
             WalkScenario(4, impact_window=bad)
 
 
-def test_a_walk_without_the_bounds_frees_those_an_earlier_walk_left_on_the_controller():
+def test_a_walk_without_the_bounds_frees_those_an_earlier_walk_left_on_the_controller(monkeypatch):
     from wbc.constraints.impact import ImpactSpeedBounds
     from wbc.robot import load_robot
     from wbc.sim.mujoco_model import build_mujoco_model
     from wbc.sim.scenarios import make_controller
 
+    monkeypatch.setattr(WalkSteps, "impact_excess_weight", 10.0)
     robot = load_robot("talos")
     sim = build_mujoco_model(robot)
     controller = make_controller(robot, "id", dt=sim.timestep)
