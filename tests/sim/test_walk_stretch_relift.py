@@ -96,8 +96,8 @@ def test_a_blind_walk_relifts_its_stretched_swing_and_stays_up(cli, tmp_path, mo
     blind walk over gentle rough ground pushed sideways late in a swing stretches that swing, and ``_add_relift``
     raises its reference. The stance leg's reach bound is off here: with it (the default) this push is answered by a
     cut of 0.092 s instead of a stretch (record 67). Whether the walk then stays up is not asserted: it did on the
-    AVX-512 machine of records 55–67, but on the machine of record 68 (no AVX-512) it falls, as it does for every
-    neighbouring push tried there (230–270 N, 2.15–2.25 s, 80–100°, record 68)."""
+    AVX-512 machine of records 55–67, but on the machine of record 68 (no AVX-512) it falls, as do the three
+    neighbouring pushes that stretched a swing there (230, 245 and 255 N, record 68)."""
     from wbc.sim.walk import WalkScenario
 
     monkeypatch.setitem(WalkScenario.__init__.__kwdefaults__, "reach_ratio", None)
