@@ -284,6 +284,30 @@ def kkt_gap(H, g, A, b, C, l, u, lb, ub, x, active_tol: float = 1e-8) -> float:
     return float(max(np.abs(r).max(), *primal)) / scale
 
 
+def numba_avx512() -> bool:
+    """Whether numba compiles the kernels for a CPU with AVX-512 (its cache key's feature string: the host's, or
+    ``NUMBA_CPU_NAME``/``NUMBA_CPU_FEATURES``). The kernels are compiled with reassociation
+    (``wbc.compiled.FASTMATH``), so their sums round by the vector width: which fuzz tick meets a rare solver path
+    (a DAQP workspace cycling to its iteration limit, a count spent before a stage) differs between an AVX-512 and
+    an AVX2 host."""
+    from numba.core.codegen import JITCPUCodegen
+
+    return "+avx512f" in JITCPUCodegen("probe").magic_tuple()[2].split(",")
+
+
+def per_host(avx512, avx2):
+    """The fuzz replay ticks found on an AVX-512 host (``avx512``) or on an AVX2 one (``avx2``), for the host numba
+    compiles for (:func:`numba_avx512`)."""
+    return avx512 if numba_avx512() else avx2
+
+
+#: (seed, episode, tick) of a kinematic fuzz tick (``fuzz_episode``; humanoid15, a far hand target, strict levels,
+#: dt 2 ms) that, replayed with ``FIRST_RESOLVE_WORK = inf`` on the controller, fails past its count: a sole drifts
+#: 0.1 mm even inside a trust region, the contact correction and the trust region are cut, the tick holds the
+#: contacts (``fallback:contacts_held``), the ticks before it ok. Of the host numba compiles for (``per_host``).
+HELD_PAST_COUNT_TICK = per_host((100014, 175, 3), (100016, 30, 5))
+
+
 def fuzz_episode(robots, seed: int, episode: int, dts=(0.002,), past_limits: float = 0.0):
     """(name, kind, strict, dt, config, controller) of ``benchmarks/fuzz.py``'s episode ``episode`` of chunk ``seed``
     (its random streams replayed) run with ``--dts`` and ``--past-limits`` (default: the fuzz's defaults, dt = 2 ms

@@ -4,6 +4,8 @@ with a URDF velocity limit; intersect only tightens; typed errors of bad margins
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -183,6 +185,11 @@ def test_the_relaxed_qp_follows_the_full_qps_floor_and_horizon_assigned_after_co
     with np.load(Path(__file__).parents[1] / "fixtures" / "id_ankle_past_speed_limit_talos.npz") as z:
         q, v = z["q"], z["v"]
     ctrl = IDBalanceController(robot)
+    # the tick's budget is not under test here: at the default one (dt, 571 counted DAQP iterations) this tick's
+    # failed full QP and relaxed QP end near the cap (measured on an AVX2 host: 524 at a_brk 20, h 1; at 50, 4 the
+    # relaxed QP's count ran out at 628 and the tick fell back to gravity), so which it does depends on the CPU's
+    # rounding (on the AVX-512 host of records 55-67 both were solved)
+    ctrl.controller.budget = math.inf
     jl, speed = ctrl.qp.joint_acceleration_limits, ctrl.qp.joint_speed_limits
     assert (speed.braking, speed.horizon, jl.speed_horizon) == (50.0, 1.0, 1.0)
     jl.braking_acceleration, jl.speed_horizon = a_brk, horizon
