@@ -75,7 +75,8 @@ def test_floating_base_estimator_update_keeps_the_c_heap_flat():
     """5000 updates of FloatingBaseEstimator (one per 2 ms tick: 10 s) must not grow the C heap (glibc's mallinfo2:
     bytes in use plus mmapped): a 500 Hz node runs it for hours. The base quaternion was built with
     pin.Quaternion(R), which leaked 80 B per call (400 kB here, 2.4 MB per minute of a node). Checked against the
-    rotation the filter holds (the quaternion read back to a matrix by Pinocchio)."""
+    rotation the filter holds (the quaternion read back to a matrix by Pinocchio). The least growth of three such
+    windows is asserted: in a CI worker, another test's thread may allocate during one (32.8 kB once, in one window)."""
     import ctypes
     import ctypes.util
     import gc
@@ -107,12 +108,14 @@ def test_floating_base_estimator_update_keeps_the_c_heap_flat():
     ft[:, 2] = -0.5 * robot.mass * G  # (sensor reading of the ground reaction: minus the force on the foot)
     for _ in range(100):
         est.update(joint_q, gyro, accel, ft)
-    before = c_heap_in_use()
-    for _ in range(5000):
-        q, _ = est.update(joint_q, gyro, accel, ft)
-    grown = c_heap_in_use() - before
-    print(f"C heap in use grew by {grown} B over 5000 updates")
-    assert grown < 20_000  # 4 B per update (the leak was 80)
+    grown = []  # three windows: a leak grows the heap in each, another thread of the test process only in some
+    for _ in range(3):
+        before = c_heap_in_use()
+        for _ in range(5000):
+            q, _ = est.update(joint_q, gyro, accel, ft)
+        grown.append(c_heap_in_use() - before)
+    print(f"C heap in use grew by {grown} B over three windows of 5000 updates")
+    assert min(grown) < 20_000  # 4 B per update (the leak was 80: 400 kB a window)
     R = pin.Quaternion(q[6], q[3], q[4], q[5]).toRotationMatrix()
     assert np.allclose(R, est.attitude.rotation, atol=1e-12)
     assert abs(np.linalg.norm(q[3:7]) - 1.0) < 1e-12
