@@ -5,7 +5,7 @@ Python by tests/ros2/kilted.py (it does not import wbc). Not a test module.
 /clock (the node runs ``--time sim``), /joint_states, /odom, /robot_description, /tf, /tf_static and /navigate_to_pose's action status and feedback topics
 (the last three need tf2_msgs and nav2_msgs: when a venv lacks them, their counts stay absent); drive /cmd_vel at
 0.2 m/s until /joint_states and /odom have SAMPLES samples and the node's /cmd_vel reader matched this writer (≤ 60 s),
-then 0.2 s more, then stop and, 3 s of /clock time later (≤ 30 s
+then until /odom has the base 2 cm further forward (≤ 10 s more), then stop and, 3 s of /clock time later (≤ 30 s
 of wall time), publish a /goal_pose
 0.4 m ahead of the last /odom position and wait (≤ 60 s) for SAMPLES feedback messages and a status array whose goal
 SUCCEEDED (4). Prints one line ``RESULT <json>``: ``nodes``, ``pubs`` (the node's publisher topics), ``counts``,
@@ -97,10 +97,14 @@ def main() -> None:
     twist.linear.x = 0.2
     # /cmd_vel until the samples arrived AND the node's reader has matched this writer (discovery is not
     # symmetric: the node's writers can reach this client before its reader matches ours; publishing before that
-    # match is lost, and the node counted 0 /cmd_vel under load), then 0.2 s more of matched samples
+    # match is lost, and the node counted 0 /cmd_vel under load), then until /odom says the base moved 2 cm forward
+    # (at most 10 s more): this writer matching the node's reader does not mean the node's reader has matched this
+    # writer yet (a CI run under load: 0.2 s of matched samples after the match and the node counted 0 /cmd_vel)
     spin_for(60, lambda: min(counts["joint_states"], counts["odom"]) >= want and cmd.get_subscription_count() > 0,
              lambda: cmd.publish(twist))
-    spin_for(0.2, each=lambda: cmd.publish(twist))
+    x0 = last["odom"].pose.pose.position.x if "odom" in last else None
+    spin_for(10.0, lambda: x0 is None or last["odom"].pose.pose.position.x >= x0 + 0.02,
+             lambda: cmd.publish(twist))
     cmd.publish(Twist())
     # the robot stands again (its closing step) before the goal: 3 s of the node's time (/clock; slower than the
     # wall clock on a loaded machine), at most 30 s of wall time
