@@ -93,6 +93,8 @@ def test_sweep_grid_and_common_random_numbers():
     ({"factors": {"force": float("nan")}}, "finite"),
     ({"scenario": {"steps": 0}}, "scenario.steps"),
     ({"scenario": {"robt": "talos"}}, "unknown key 'robt'"),
+    ({"scenario": {"contact_events": 1}}, "scenario.contact_events must be a bool"),
+    ({"scenario": {"contact_events": True, "state": "ground-truth"}}, "contact_events reads the ankle F/T"),
     ({"kind": "sweep"}, "needs a [sweep] table"),
     ({"kind": "sweep", "sweep": {"params": {"kp": [0, 1]}}}, "unknown key 'kp'"),
     ({"metrics": {"keep": "fell"}}, "metrics.keep"),
@@ -570,3 +572,26 @@ def test_the_first_swing_foot_is_drawn_per_trial_without_moving_the_other_draws(
     assert 160 <= n_right <= 240  # binomial(400, 1/2): mean 200, sd 10
     with pytest.raises(InvalidInputError, match="first_side must be left, right or random"):
         default_spec("push", scenario={"first_side": "up"})
+
+
+def test_contact_events_reach_the_walk(monkeypatch):
+    """scenario.contact_events (default off; refused without the estimated state, test_bad_specs_are_refused_by_name)
+    is handed to the trial's WalkScenario (wbc sim walk --contact-events)."""
+    import wbc.sim.walk
+    from wbc.campaign.trials import walk_trial
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_walk(*args, **kwargs):
+        seen.append(kwargs["contact_events"])
+        raise Stop
+
+    monkeypatch.setattr(wbc.sim.walk, "WalkScenario", fake_walk)
+    for scenario, expected in (({}, False), ({"contact_events": True}, True)):
+        spec = default_spec("push", trials=1, seed=3, scenario=scenario)
+        with pytest.raises(Stop):
+            walk_trial(spec, trial_params(spec, 0))
+        assert seen[-1] is expected

@@ -13,6 +13,7 @@ A campaign is a TOML file (or the same mapping from Python / CLI options)::
     step_length = 0.25
     step_duration = 0.6
     first_side = "random"         # the foot that swings first: left | right | random (drawn per trial)
+    contact_events = false        # contacts follow the measured events (wbc sim walk --contact-events; estimated)
 
     [factors]                     # what varies from trial to trial
     force = [300.0, 500.0]        # [lo, hi]: uniform; a number: fixed; {values = [...]}: uniform choice
@@ -60,7 +61,7 @@ SCENARIO_KEYS = {
     "robot": (str, "talos"), "steps": (int, 8), "step_length": (float, 0.25), "step_duration": (float, 0.6),
     "step_adjust": (bool, True), "solver": (str, "fast"), "sole_margin": (float, None),
     "state": (str, "estimated"), "zmp_feedback": (float, None), "plant": (str, "realistic"),
-    "first_side": (str, "random"),
+    "first_side": (str, "random"), "contact_events": (bool, False),
 }
 
 #: Factors a trial may vary: name → (unit, valid range). Push factors, then plant ≠ model (robustness).
@@ -174,6 +175,9 @@ def load_spec(source) -> CampaignSpec:
                                 f"{scenario['first_side']!r}")
     if scenario["state"] not in ("estimated", "ground-truth"):
         raise InvalidInputError(f"{where}: scenario.state must be estimated or ground-truth, got {scenario['state']!r}")
+    if scenario["contact_events"] and scenario["state"] != "estimated":
+        raise InvalidInputError(f"{where}: scenario.contact_events reads the ankle F/T of scenario.state = estimated, "
+                                f"got {scenario['state']!r}")
     if not -1.0 <= scenario["step_length"] <= 1.0:
         raise InvalidInputError(f"{where}: scenario.step_length must be in [-1, 1] m, got {scenario['step_length']}")
     factors = {}

@@ -125,7 +125,8 @@ def walk_trial(spec, params: dict) -> dict:
     scenario = WalkScenario(sc["steps"], sc["step_length"], sc["step_duration"], push=force, push_time=push_time,
                             push_duration=duration, push_dir=float(params.get("direction_deg", 90.0)),
                             step_adjust=sc["step_adjust"], stabilizer_gains=gains,
-                            first_side=params.get("first_side", "left"), **walk_kw)
+                            first_side=params.get("first_side", "left"), contact_events=sc["contact_events"],
+                            **walk_kw)
     options = walk_options_for(robot, sc["solver"], sc["sole_margin"])
     seed = int(params["trial"])
     plant_errors = {k: float(params.get(k, 0.0)) for k in ("mass_error", "payload", "friction", "armature")}
