@@ -23,6 +23,7 @@ class _Switcher:
     def __init__(self):
         self.phases = {"left": "stance", "right": "stance"}
         self.ground_height = {"left": 0.0, "right": 0.0}
+        self.touchdown_time = {"left": None, "right": None}
         self.calls = []
 
     def phase(self, side):
@@ -34,6 +35,7 @@ class _Switcher:
 
     def touch_down(self, side, t):
         self.phases[side] = "loading"
+        self.touchdown_time[side] = t
         self.calls.append(("touchdown", side, round(t, 4)))
 
 
@@ -71,7 +73,7 @@ class _Walk(WalkContactEvents):
         self._sole_views = {}
         self.measured_wrench = np.zeros((2, 6))
 
-    def tick(self, t, controller, fz, heights, tilt_right=0.0, cop_right=(0.0, 0.0)):
+    def tick(self, t, controller, fz, heights, tilt_right=0.0, cop_right=(0.0, 0.0), tp=0.0):
         for j, s in enumerate(("left", "right")):
             a = tilt_right if s == "right" else 0.0
             R = pin.rpy.rpyToMatrix(0.0, a, 0.3)
@@ -80,7 +82,7 @@ class _Walk(WalkContactEvents):
             self._sole_views[s] = (M, M.rotation, M.translation)
             cx, cy = cop_right if s == "right" else (0.0, 0.0)
             self.measured_wrench[j] = [0.0, 0.0, fz[j], cy * fz[j], -cx * fz[j], 0.0]
-        self._follow_contacts(t, controller, 0.0)
+        self._follow_contacts(t, controller, tp)
 
 
 def test_a_lifted_stance_sole_is_released_held_flat_and_set_down_again():
@@ -138,3 +140,99 @@ def test_a_loaded_sole_on_its_toe_edge_is_cut_to_a_toe_band_until_it_is_flat_aga
         w.tick(k * 0.002, c, (440.0, 440.0), (0.0, 0.0), 0.0)
     assert c.contacts["right"].support is None and w._cut["right"] is None
     assert [(round(t / 0.002), a) for t, s, a in w.contact_releases] == [(4, "edge"), (84, "whole sole")]
+
+
+def _late_landing(loads_at):
+    """The right swing planned down at 0.1 s (plan sample 50), its sole 4 mm up and unloaded; the switcher sets it
+    down at 0.124 s (a late swing: its own state test); the plant loads it from ``loads_at`` s (None: never).
+    (the walk, the switcher's calls, the late events' times)"""
+    w, c = _Walk(), _Controller()
+    w.switcher.phases["right"] = "swing"
+    w._active = {"right": (None, 0, 50, None)}
+    for k in range(150):
+        t = k * 0.002
+        if k == 62:
+            w.switcher.touch_down("right", t)
+        down = loads_at is not None and t >= loads_at - 1e-9
+        w.tick(t, c, (880.0 - (440.0 if down else 0.0), 440.0 if down else 0.0), (0.0, 0.0 if down else 0.004),
+               tp=t)
+    late = [e["t"] for e in w.contact_events_summary()["contact_events"] if e["kind"] == "late"]
+    return w, w.switcher.calls, late
+
+
+def test_a_late_sole_in_its_ramp_in_is_not_released_while_its_load_rises():
+    """The events call the right sole late (0.03 s past its planned touch-down: 0.13 s), 6 ms after the switcher
+    set it down; the plant loads it 20 ms later, the events see it 10 ms after that (their latency). It is not
+    released (campaign 9409, trial 202: released there, it landed 80 ms later and the robot fell)."""
+    w, calls, late = _late_landing(0.15)
+    assert late == [pytest.approx(0.13)]
+    assert calls == [("touchdown", "right", 0.124)]
+    assert w.contact_releases == []
+
+
+def test_a_late_sole_the_switcher_holds_unloaded_is_released_after_the_tolerance():
+    """Never loaded: released when the switcher's contact is as old as the events' tolerance plus their latency
+    (0.124 + 0.03 + 0.01 s)."""
+    w, calls, late = _late_landing(None)
+    assert late == [pytest.approx(0.13)]
+    assert calls == [("touchdown", "right", 0.124), ("release", "right", 0.164)]
+
+
+def test_a_released_stance_sole_is_handed_to_its_planned_swing():
+    """A stance sole lost (unloaded, 2 cm up) is held by the events until its planned swing starts: then
+    _lost_sole_swings hands it over once (the swing's reference drives it), and the events stop holding it."""
+    w, c = _Walk(), _Controller()
+    for k in range(30):
+        w.tick(k * 0.002, c, (880.0, 0.0 if k >= 10 else 440.0), (0.0, 0.02 if k >= 10 else 0.0), math.radians(5.0))
+    assert w.switcher.calls == [("release", "right", 0.028)]
+    held = len(c.refs)
+    assert held > 0 and not w._lost_sole_swings("left")
+    assert w._lost_sole_swings("right") and not w._lost_sole_swings("right")
+    for k in range(30, 40):
+        w.tick(k * 0.002, c, (880.0, 0.0), (0.0, 0.02), math.radians(5.0))
+    assert len(c.refs) == held and w.switcher.calls == [("release", "right", 0.028)]
+
+
+def _campaign_trial(monkeypatch, index):
+    """Trial ``index`` of the push campaign 9409 (``wbc campaign run --kind push --trials 1000 --seed 9409 --robot
+    talos --set scenario.contact_events=true``: realistic plant, estimated state): (its row, its walk)."""
+    import wbc.sim.walk as walk
+    from wbc.campaign import default_spec, trial_params
+    from wbc.campaign.trials import walk_trial
+
+    walks = []
+
+    class Kept(walk.WalkScenario):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            walks.append(self)
+
+    monkeypatch.setattr(walk, "WalkScenario", Kept)
+    spec = default_spec("push", trials=1000, seed=9409, scenario={"robot": "talos", "contact_events": True})
+    return walk_trial(spec, trial_params(spec, index)), walks[0]
+
+
+def test_a_late_swing_set_down_by_the_switcher_keeps_its_contact_through_its_ramp_in(monkeypatch):
+    """Trial 202 (494 N towards 38° at the left swing's landing): the events call the left sole late 10 ms after
+    the switcher set it down, in its ramp-in; it stays a contact, the plant loads it, and the trial survives (with
+    the sole released there it landed 80 ms later and the robot fell, record 69)."""
+    row, w = _campaign_trial(monkeypatch, 202)
+    late = [e.t for e in w.contact_monitor.events() if e.sole == "left" and e.kind == "late"]
+    down = [t for t, s, e in w.switcher.events if s == "left" and e == "touchdown" and 1.7 < t < 1.9]
+    assert late and down and down[0] < late[0] < down[0] + 0.03
+    assert w.contact_releases == []
+    assert row["survived"] and not row["fell"], row
+
+
+def test_a_stance_sole_lost_before_its_lift_off_swings_on_time(monkeypatch):
+    """Trial 19 (413 N towards 36°): the right stance sole is unloaded and leaves the ground 32 ms before its planned
+    ramp-out; the events release it, and its swing starts at the plan's time (held instead, it stalled the walk
+    0.8 s and the robot fell). The walk lands every step and survives."""
+    row, w = _campaign_trial(monkeypatch, 19)
+    lost = [t for t, s, a in w.contact_releases if s == "right" and a == "release"]
+    assert lost and 4.5 < lost[0] < 4.7
+    starts = [t for t, s in w.swing_starts if s == "right" and t > lost[0]]
+    assert starts and starts[0] - lost[0] < 0.06
+    landed = [t for t, s, e in w.switcher.events if s == "right" and e == "touchdown" and t > starts[0]]
+    assert landed and landed[0] - starts[0] < 0.7  # a swing (0.6 s steps), not a sole held down until it loads
+    assert row["survived"] and row["completed"], row

@@ -286,7 +286,7 @@ class SoleContactEvents:
                 self._planned_since, self._late_sent = float(t), False
             if self.in_contact:  # landed in this planned contact: a later loss is a loss, not a late landing
                 self._late_sent = True
-            elif not self._late_sent and not self._late_sent \
+            elif not self._late_sent \
                     and t - self._planned_since >= self.th.timing_tolerance - 1e-9:
                 self._late_sent = True
                 m = self.signals

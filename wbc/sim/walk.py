@@ -459,6 +459,8 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         self._landed = None  # the side whose swing touched down this tick (_swing_landed, _hurry_double_support)
         self._next = 0  # next swing to start
         self._t_unload = {"left": -1.0, "right": -1.0}
+        #: (t, side) of each swing's start: its ramp-out, or the swing of a sole the contact events released
+        self.swing_starts: list[tuple[float, str]] = []
         self._land_z = {"left": 0.0, "right": 0.0}  # planned landing height of the current swing per side
         # terrain: measured − planned height (m) of a swing foot's sole at its release and of the stance sole
         # (_relative_ground); the swing reference goes from the first to the second (_swing_offset)

@@ -67,6 +67,7 @@ class WalkContactEvents:
         #: "whole sole" (the cut undone)
         self.contact_releases: list[tuple[float, str, str]] = []
         self._lost = {"left": False, "right": False}
+        self._late = {"left": False, "right": False}  # a late event of cause unloaded not yet acted on (_late_unloaded)
         self._hold: dict = {}  # side → the flat pose a released sole is held at (world)
         self._edge = {"left": None, "right": None}  # side → the band a sole on its edge is cut to (sole frame, m)
         self._rebounding = {"left": False, "right": False}  # blind: a landing sole held for its load (_await_rebound)
@@ -162,8 +163,13 @@ class WalkContactEvents:
             _, R, pos = self._sole_views[side]
             det = mon.soles[side]
             planned = sw.phase(side) in ("stance", "loading") or landing_due.get(side, False)
-            causes = {e.cause for e in det.update(t, wrench[j], R, pos, sw.ground_height[side], planned)
-                      if e.kind in ("loss", "late")}  # the controller's contact denied by the measurement
+            events = det.update(t, wrench[j], R, pos, sw.ground_height[side], planned)
+            # the controller's contact denied by the measurement; a late one unloaded counts once the switcher's own
+            # contact is as old as the events' timing tolerance (_late_unloaded)
+            causes = {e.cause for e in events if e.kind == "loss" or (e.kind == "late" and e.cause != "unloaded")}
+            if self._late_unloaded(side, any(e.kind == "late" and e.cause == "unloaded" for e in events), planned,
+                                   det.in_contact, t):
+                causes.add("unloaded")
             if self._edge[side] is not None and (det.in_contact or sw.phase(side) not in ("stance", "loading")):
                 self._uncut(controller, side, t)  # flat again, or lifted by the plan
             other = _OTHER_SOLE[side]
@@ -193,6 +199,41 @@ class WalkContactEvents:
                     vel = np.zeros(6)
                     vel[2] = -self.descent_speed if drop < self.max_descent else 0.0
                     controller.set_foot_reference(side, target, vel, np.zeros(6))
+
+    def _lost_sole_swings(self, side: str) -> bool:
+        """Whether the sole of ``side`` is one the events released (a ``loss`` or ``late`` of cause ``unloaded``)
+        and still hold flat, lowering it until they see it down; if so it is handed to its planned swing, which
+        starts now (:meth:`~wbc.sim.walk_steps.WalkSteps._release_next_swing`; the switcher has it in ``swing``
+        already). Held on instead, it stalled the plan's next step: push campaign 9409, trial 19, a stance sole
+        unloaded 32 ms before its planned ramp-out stayed held 0.8 s, and the robot fell."""
+        if not self._lost[side]:
+            return False
+        self._lost[side] = False
+        return True
+
+    def _late_unloaded(self, side: str, late: bool, planned: bool, in_contact: bool, t: float) -> bool:
+        """Whether a ``late`` event of cause ``unloaded`` of ``side`` (``late``: one this tick) denies the
+        switcher's contact now: once the switcher has held the sole as a contact (phase ``stance`` or ``loading``)
+        for the events' ``timing_tolerance`` since its touch-down, plus their latency (a contact made within the
+        tolerance is seen that much later), with no measured contact since the event. The event counts from the
+        plan's touch-down time; a sole the switcher sets down later (a late swing) is in
+        its ramp-in then, its load still rising, and releasing it there put off the landing by 80 ms (push
+        campaign 9409, trial 202: a fall). Dropped once the sole is in contact or no longer planned down."""
+        if late:
+            self._late[side] = True
+        if not self._late[side]:
+            return False
+        sw = self.switcher
+        if in_contact or not planned:
+            self._late[side] = False
+            return False
+        down = sw.touchdown_time[side]
+        if sw.phase(side) not in ("stance", "loading") or (
+                down is not None and t - down < self.contact_thresholds.timing_tolerance
+                + self.contact_monitor.latency - 1e-9):
+            return False
+        self._late[side] = False
+        return True
 
     def _cut_to_edge(self, controller, side: str, det, t: float) -> None:
         """Confine a loaded sole rolled onto an edge to a band of 2 ``edge_margin`` (m) along that edge (the QP's

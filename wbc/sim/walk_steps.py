@@ -331,10 +331,14 @@ class WalkSteps:
         if self._next < len(self.swings):
             side, k_lift, k_td, fs = self.swings[self._next]
             other = "right" if side == "left" else "left"
-            # Never release a foot while the other one is not yet down (late touch-down: the step waits).
-            if tp >= k_lift * self.dt - self.ramp_time - 1e-9 and self.switcher.phase(side) in ("stance", "loading") \
-                    and self.switcher.phase(other) in ("stance", "loading") and not self.hold_next_swing:
-                self.switcher.unload(side, t)
+            # Never release a foot while the other one is not yet down (late touch-down: the step waits). A sole the
+            # contact events released (a contact loss) swings from where they hold it, with no ramp-out.
+            if tp >= k_lift * self.dt - self.ramp_time - 1e-9 and self.switcher.phase(other) in ("stance", "loading") \
+                    and not self.hold_next_swing:
+                if self.switcher.phase(side) in ("stance", "loading"):
+                    self.switcher.unload(side, t)
+                elif not self._lost_sole_swings(side):
+                    return
                 if self.terrain_walk is not None or self.blind:
                     # touch-down is detected above the foothold's ground (blind: the planned flat ground)
                     if self.terrain_walk is not None:
@@ -345,6 +349,7 @@ class WalkSteps:
                         - float(self.poses[side][k][2, 3])
                     self._dz_stance[side] = self._dz_lift[side]
                 self._t_unload[side] = t
+                self.swing_starts.append((float(t), side))
                 self._active[side] = self.swings[self._next]
                 self._next += 1
 

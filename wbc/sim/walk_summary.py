@@ -99,10 +99,10 @@ class WalkSummary:
         landing, td_delay, slips = [], [], []
         swings = list(self.swings)
         tds = [(t, s) for t, s, e in ev if e == "touchdown"]
-        unloads = {sd: [t for t, s, e in ev if e == "unload" and s == sd] for sd in ("left", "right")}
+        unloads = {sd: [t for t, s in self.swing_starts if s == sd] for sd in ("left", "right")}
         count = {"left": 0, "right": 0}
         for (side, k_lift, k_td, fs) in swings:
-            # the swings of a side are unloaded in order: the i-th unload of a side starts its i-th swing
+            # the swings of a side start in order: the i-th start of a side (its ramp-out) is its i-th swing
             if count[side] >= len(unloads[side]):
                 continue
             t_unload = unloads[side][count[side]]
