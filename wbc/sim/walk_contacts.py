@@ -204,8 +204,8 @@ class WalkContactEvents:
         """Whether the sole of ``side`` is one the events released (a ``loss`` or ``late`` of cause ``unloaded``)
         and still hold flat, lowering it until they see it down; if so it is handed to its planned swing, which
         starts now (:meth:`~wbc.sim.walk_steps.WalkSteps._release_next_swing`; the switcher has it in ``swing``
-        already). Held on instead, it stalled the plan's next step: push campaign 9409, trial 19, a stance sole
-        unloaded 32 ms before its planned ramp-out stayed held 0.8 s, and the robot fell."""
+        already). Held on instead, it stalled the plan's next step until the events saw it loaded again, and the
+        other foot carried the robot alone meanwhile (benchmarks/records/69)."""
         if not self._lost[side]:
             return False
         self._lost[side] = False
@@ -216,9 +216,9 @@ class WalkContactEvents:
         switcher's contact now: once the switcher has held the sole as a contact (phase ``stance`` or ``loading``)
         for the events' ``timing_tolerance`` since its touch-down, plus their latency (a contact made within the
         tolerance is seen that much later), with no measured contact since the event. The event counts from the
-        plan's touch-down time; a sole the switcher sets down later (a late swing) is in
-        its ramp-in then, its load still rising, and releasing it there put off the landing by 80 ms (push
-        campaign 9409, trial 202: a fall). Dropped once the sole is in contact or no longer planned down."""
+        plan's touch-down time; a sole the switcher sets down later (a late swing) is in its ramp-in then, its load
+        still rising, and releasing it there puts off the landing the switcher found (benchmarks/records/69).
+        Dropped once the sole is in contact or no longer planned down."""
         if late:
             self._late[side] = True
         if not self._late[side]:
