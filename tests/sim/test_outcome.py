@@ -157,6 +157,46 @@ def test_landing_slide_is_the_travel_of_the_contact_corners(talos_sim):
     assert not monitor.fell
 
 
+def test_a_corner_lifted_by_the_sole_turning_about_its_toe_is_not_sliding(talos_sim):
+    """Both feet flat on the floor, then the whole robot turned by 20° about the line through its toe corners: the
+    heels rise and their corners move L (1 − cos 20°) ≈ 1.2 cm horizontally over the turn, but the toes, the only
+    corners still touching, stay put: no slide (blind rough seed 10 counted 11.8 mm for a heel 45 mm in the air).
+    Sliding on the toes then counts, and a heel set down again elsewhere counts from where it first touched."""
+    sim, robot = talos_sim, talos_sim.robot
+    mujoco.mj_resetData(sim.model, sim.data)
+    q = robot.q_ref.copy()
+    q[2] -= 0.0005  # all 8 corners in contact
+    sim.set_state(q)
+    monitor = OutcomeMonitor(sim)
+    monitor.update(0.0)
+    toe = monitor.corners_world(0)[[0, 3]].mean(axis=0)  # corners 0 and 3: the front (+x) ones
+    base = pin.XYZQUATToSE3(q[:7])
+
+    def turned(deg: float, shift=(0.0, 0.0)) -> np.ndarray:
+        pivot = pin.SE3(np.eye(3), toe + np.array([shift[0], shift[1], 0.0]))
+        turn = pin.SE3(pin.rpy.rpyToMatrix(0.0, math.radians(deg), 0.0), np.zeros(3))
+        qk = q.copy()
+        qk[:7] = pin.SE3ToXYZQUAT(pivot * turn * pin.SE3(np.eye(3), -toe) * base)
+        return qk
+
+    for i in range(1, 11):
+        sim.set_state(turned(2.0 * i))
+        monitor.update(0.002 * i)
+    heels = monitor.corners_world(0)[[1, 2]]
+    assert heels[:, 2].min() > toe[2] + 0.05  # the heels are up (sole length ≥ 0.15 m)
+    # the toes stay within 0.1 mm (the soles of q_ref are not exactly level); the heels moved about 12 mm
+    assert monitor.max_landing_slide_m["left"] < 1e-4 and monitor.max_landing_slide_m["right"] < 1e-4
+    for i in range(1, 6):  # slide 3 mm forward on the toes
+        sim.set_state(turned(20.0, (0.0006 * i, 0.0)))
+        monitor.update(0.02 + 0.002 * i)
+    assert monitor.max_landing_slide_m["left"] == pytest.approx(0.003, abs=1e-4)
+    sim.set_state(turned(0.0, (0.003, 0.0)))  # flat again, 3 mm ahead: the heels touch 3 mm from where they did
+    monitor.update(0.04)
+    assert monitor.max_landing_slide_m["left"] == pytest.approx(0.003, abs=1e-4)
+    assert monitor.max_landing_slide_m["right"] == pytest.approx(0.003, abs=1e-4)
+    assert not monitor.fell
+
+
 def test_a_toe_pressed_into_a_riser_is_a_foot_strike_fall():
     """Talos standing 3 mm into the riser of a 10 cm stair (its sole fronts 3 mm past x = 0.2): MuJoCo's contact list
     has foot contacts with a horizontal normal and a normal force > 20 N — a foot strike, reported as a fall. 15 mm

@@ -27,10 +27,12 @@ velocities of the new state) and decides:
 * **landing slide** — for each foot, the horizontal (world x, y) travel of the sole's contact points between the
   first contact of a support phase and its lift-off: a sole corner becomes a contact point at the first tick a
   MuJoCo foot–floor contact lies within :data:`CORNER_MATCH` of it, and its travel is measured from where it was at
-  that tick while the foot keeps touching the floor. A support phase ends (lift-off) after :data:`LIFTOFF_TICKS`
-  consecutive ticks without any foot–floor contact. The feet standing at t = 0 start a support phase too (their
-  slide is measured from t = 0). Corners are the sole rectangle's (``robot.sole_corners_local``) in the sole
-  frame, placed by MuJoCo's body pose.
+  that tick, at every tick a contact lies within :data:`CORNER_MATCH` of it again. A corner the sole lifts while it
+  turns about another point of support (onto its toe, an edge or a bump under it) is not sliding: its displacement
+  in the air is not counted, and it counts again if the corner touches down elsewhere. A support phase ends
+  (lift-off) after :data:`LIFTOFF_TICKS` consecutive ticks without any foot–floor contact. The feet standing at
+  t = 0 start a support phase too (their slide is measured from t = 0). Corners are the sole rectangle's
+  (``robot.sole_corners_local``) in the sole frame, placed by MuJoCo's body pose.
 * **MuJoCo warnings** — MuJoCo's own warnings (an unstable simulation, a contact buffer full...) are routed to
   Python from the first monitor on (:func:`route_mujoco_warnings`): reported as ``mujoco_warnings`` in the summary
   and as a :class:`RuntimeWarning`, instead of MuJoCo's default of printing them and appending them to
@@ -199,33 +201,36 @@ def _tick_kernel(qvel, xmat, xpos, geom, pos, frame, checks, io):
             for r in range(3):
                 corners[c, r] = (xmat[b, 3 * r] * corners_body[s, 0, c] + xmat[b, 3 * r + 1] * corners_body[s, 1, c]
                                  + xmat[b, 3 * r + 2] * corners_body[s, 2, c]) + xpos[b, r]
-        if state[s] < 4:
-            for i in range(ncon):
-                if side_of[i] != s:
-                    continue
-                k, dk = 0, 0.0
-                for c in range(4):  # numpy's argmin: the first minimum, or the first NaN
-                    e0, e1, e2 = corners[c, 0] - pos[i, 0], corners[c, 1] - pos[i, 1], corners[c, 2] - pos[i, 2]
-                    dc = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-                    if c == 0 or dc < dk or (dc != dc and dk == dk):
-                        k, dk = c, dc
-                    if dc != dc:
-                        break
-                if dk <= CORNER_MATCH and ref[s, k, 0] != ref[s, k, 0]:
+        touching = 0  # bit c: a contact of this foot lies within CORNER_MATCH of corner c at this tick
+        for i in range(ncon):
+            if side_of[i] != s:
+                continue
+            k, dk = 0, 0.0
+            for c in range(4):  # numpy's argmin: the first minimum, or the first NaN
+                e0, e1, e2 = corners[c, 0] - pos[i, 0], corners[c, 1] - pos[i, 1], corners[c, 2] - pos[i, 2]
+                dc = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+                if c == 0 or dc < dk or (dc != dc and dk == dk):
+                    k, dk = c, dc
+                if dc != dc:
+                    break
+            if dk <= CORNER_MATCH:
+                touching |= 1 << k
+                if ref[s, k, 0] != ref[s, k, 0]:
                     ref[s, k, 0], ref[s, k, 1] = corners[k, 0], corners[k, 1]
-            known = 0
-            for c in range(4):
-                if ref[s, c, 0] == ref[s, c, 0]:
-                    known += 1
-            state[s] = known
-        if state[s]:
-            m = np.nan
-            for c in range(4):  # numpy.fmax: NaN (unknown corner) skipped
-                e0, e1 = corners[c, 0] - ref[s, c, 0], corners[c, 1] - ref[s, c, 1]
-                dd = e0 * e0 + e1 * e1
-                if dd == dd and not dd <= m:
-                    m = dd
-            fo[3 + s] = math.sqrt(m)
+        known = 0
+        for c in range(4):
+            if ref[s, c, 0] == ref[s, c, 0]:
+                known += 1
+        state[s] = known
+        m = np.nan
+        for c in range(4):  # numpy.fmax over the touching corners: NaN (no contact at c) skipped
+            if not (touching >> c) & 1:
+                continue
+            e0, e1 = corners[c, 0] - ref[s, c, 0], corners[c, 1] - ref[s, c, 1]
+            dd = e0 * e0 + e1 * e1
+            if dd == dd and not dd <= m:
+                m = dd
+        fo[3 + s] = math.sqrt(m)
     return fo, io
 
 

@@ -16,7 +16,8 @@ Scenarios (all start from ``robot.q_ref`` at rest on both feet; the CoM referenc
 Every scenario (:data:`OUTCOME`, checked every tick by :mod:`wbc.sim.outcome` from MuJoCo's data, added to the
 scenario's own criteria by :func:`acceptance`): no fall (base drop > 0.2 m, pelvis or torso tilt > 30° from its
 nominal orientation, a non-foot body touching the floor, or a foot strike on a riser or nosing), no joint above its URDF velocity limit (0
-exceedances), landing slide (travel of the soles' contact points from first contact to lift-off) ≤ 10 mm.
+exceedances), landing slide (travel of the soles' contact points, while touching, from first contact to lift-off)
+≤ 10 mm.
 
 Capture-point bound of a push (linear inverted pendulum of height z_c, ω = √(g/z_c), support polygon edge at
 distance d from the CoM projection in the push direction; Pratt et al. 2006 "Capture point: a step toward
@@ -75,7 +76,7 @@ NO_FALL = Criterion("no fall (base drop > 0.2 m, pelvis/torso tilt > 30°, a non
 #: Every physics scenario: no joint of the plant above its URDF velocity limit (MuJoCo qvel, every tick).
 JOINT_SPEED = Criterion("no joint above its URDF velocity limit", "joint_speed_exceedances", "==", 0,
                         detail="worst {max_joint_speed_joint} at {max_joint_speed_ratio:.5g}× its limit")
-#: Every physics scenario: the soles' contact points travel ≤ 10 mm from first contact to lift-off.
+#: Every physics scenario: the soles' contact points travel ≤ 10 mm, while touching, from first contact to lift-off.
 LANDING_SLIDE = Criterion("landing slide ≤ 10 mm", "max_landing_slide_m", "<=", 0.010)
 #: The operator's outcome criteria, added to every scenario's own (:func:`acceptance`).
 OUTCOME = (NO_FALL, JOINT_SPEED, LANDING_SLIDE)
