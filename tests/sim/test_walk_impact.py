@@ -11,8 +11,8 @@ Trial 206 of campaign 9409 (same spec and seed scheme; 347 N for 0.1 s towards 2
 outer edge while the pelvis turns, and the heel corners' impact models predict the right hip yaw past its limit from
 the window's first tick, so the bounds free those rows. Without their soft form
 (:class:`wbc.constraints.impact.ImpactSpeedExcess`, ``WalkSteps.impact_excess_weight``) the hip yaw passes its limit
-at the impact (1.30×, record 68); with it no plant joint passes its limit. The walk's default weight is 0 (off):
-at 10, walking push 9813 and the ideal-plant late push of tests/sim/test_walk.py fall (record 68).
+at the impact (1.30×, record 68); with it no plant joint passes its limit. The walk's default weight is 10 (record
+71; off by default in record 68, when walking push 9813 fell with it).
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """The stance leg's reach bounds the step time (wbc.gait.stance_reach in WalkScenario's step timing), closed loop in
 MuJoCo on the push campaign's realistic plant and estimated state: trial 10 of the default push campaign with seed
-9408 (429 N for 0.1 s towards 333°). Without the bound the right knee passes its URDF speed limit (1.155×,
-benchmarks/records/67); with it the step lands before the stance leg is stretched and no joint passes its limit
-(the largest ratio 0.953×).
+9408 (429 N for 0.1 s towards 333°). Without the bound the right knee passes its URDF speed limit (1.155× with the
+post-impact excess cost off, benchmarks/records/67; 1.009× at its default weight 10, which pulls part of the landing's
+post-impact rate back, record 71); with it the step lands before the stance leg is stretched and no joint passes its
+limit (the largest ratio 0.953×).
 The speed ratios are the plant's joint velocities over the URDF limits, read here from the run's log."""
 
 import numpy as np
@@ -46,7 +47,7 @@ def _trial(monkeypatch, reach_ratio):
 def test_without_the_reach_bound_the_landing_knee_passes_its_speed_limit(monkeypatch):
     out, scenario, ratio, knees = _trial(monkeypatch, None)
     assert scenario.reach_cuts == 0
-    assert ratio[knees].max() > 1.05
+    assert ratio[knees].max() > 1.0
     assert not out["survived"]
 
 

@@ -55,7 +55,9 @@ def test_walking_push_9813_log_the_right_sole_was_tripped_by_its_heel_while_swin
 def test_walking_push_9813_passes_with_the_stretched_swing_relifted(cli, tmp_path):
     """The run: passed; the right swing stretched after the push rises off the floor again (the plant's lowest
     corner over 5 mm, no MuJoCo force on the sole from the push to the controller's touch-down) and lands flat
-    (MuJoCo loads it within 10 ms, tilt under 2°) at its adjusted footstep, 0.24 m further than the tripped sole."""
+    (MuJoCo loads it within 20 ms, tilt under 2°) at its adjusted footstep, 0.24 m further than the tripped sole.
+    (The post-impact excess cost slows the last millimetres of the descent: at the controller's touch-down the
+    lowest corner is 1.8 mm up and MuJoCo loads the sole 16 ms later; with the cost off, 0.7 mm and 6 ms; record 71.)"""
     import wbc
 
     log, out = tmp_path / "w.npz", tmp_path / "w.json"
@@ -81,9 +83,9 @@ def test_walking_push_9813_passes_with_the_stretched_swing_relifted(cli, tmp_pat
 
     assert max(lowest_and_tilt(k)[0] for k in range(k0, k_td)) > 0.005  # (before the fix: 1.1 mm)
     fz = d["sim_wrench"][:, 1, 2]
-    n = int(round(0.01 / dt))
+    n = int(round(0.02 / dt))
     assert (fz[k0:k_td] < 1.0).all() and fz[k_td:k_td + n + 1].max() > 0.05 * robot.mass * robot.gravity
-    assert max(lowest_and_tilt(k)[1] for k in range(k_td, k_td + 4 * n)) < 2.0  # (before the fix: 5°, on its toe)
+    assert max(lowest_and_tilt(k)[1] for k in range(k_td, k_td + 2 * n)) < 2.0  # (before the fix: 5°, on its toe)
     assert d["sole_pos"][k_td, 1, 0] > 1.75  # (the tripped sole: 1.547 m)
 
 

@@ -237,9 +237,10 @@ class WalkSteps:
     _legs = None  # wbc.gait.stance_reach.stance_legs of the robot when reach_ratio is set (WalkScenario.setup)
     _reach_cut = -1  # the last swing whose time the stance leg's reach cut (_step_timing's count of reach_cuts)
     _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
-    #: weight of the post-impact rates past their bound (ImpactSpeedExcess, (rad/s²)⁻²); 0 (the default): those rows
-    #: free. At 10 a push campaign survives more often, but walking push 9813 falls (benchmarks/records/68)
-    impact_excess_weight = 0.0
+    #: weight of the post-impact rates past their bound (ImpactSpeedExcess, (rad/s²)⁻²); 0: those rows free. At 10
+    #: (the default) push campaign 9409 survives 848/1000 against 812 at 0, with 57 falls against 53
+    #: (benchmarks/records/68 and 71)
+    impact_excess_weight = 10.0
 
     def _impact_setup(self, controller, robot) -> None:
         """With ``impact_window`` > 0 and an ID controller with joint speed bounds: add
