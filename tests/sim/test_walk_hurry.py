@@ -6,7 +6,9 @@ leg — the push's side — standing: a wrong-leg push (record 59). The right sw
 beyond the left sole, and only the left foot's step can catch it. With the planned 0.12 s double support, main
 436cf1f lets the DCM run on and the robot falls (campaign row: torso tilt past 30°, the left ankle roll at 2.36× its
 speed limit). With the double support ended at the touch-down
-(:meth:`wbc.sim.walk.WalkScenario._hurry_double_support`), the walk passes.
+(:meth:`wbc.sim.walk.WalkScenario._hurry_double_support`), the walk passes. A push late in a swing moves the DCM
+out of the soles only during the double support that follows (trial 5 of campaign 9411): the check runs at every
+tick of it.
 """
 
 from __future__ import annotations
@@ -85,6 +87,39 @@ def test_wrong_leg_push_ends_the_double_support_at_the_touch_down_and_passes(cli
     lift = next(i for i in range(td, len(t)) if not loaded[i, 0])
     assert t[lift] - t[td] < 0.06, (t[td], t[lift])
     assert any(0.0 < c for c in s["step_timing_changes_s"][1:])
+
+
+PUSH_9411_5 = ["sim", "walk", "--steps", "8", "--step-length", "0.25", "--step-duration", "0.6", "--push",
+               "395.1284134802178", "--push-time", "1.818428572898381", "--push-dir", "274.06900725560945",
+               "--push-duration", "0.1", "--plant", "realistic", "--state", "estimated", "--seed", "5"]
+
+
+def test_push_late_in_a_swing_ends_the_double_support_when_the_dcm_leaves_the_soles(cli, tmp_path):
+    """Trial 5 of push campaign 9411 (``wbc campaign run --kind push --seed 9411``, Talos): 395 N for 0.1 s at
+    1.818 s towards 274° (right) while the right foot is in the last 0.06 s of its swing — a push towards the landing
+    foot. The DCM is still inside both soles when the right sole lands and leaves them during the double support, so
+    the rule at the touch-down alone keeps the planned double support: on main f5812d6 the controller releases the
+    left sole 0.150 s after its right touch-down, the inner left step and the outer right step come late, and the
+    robot falls (base drop at 3.05 s, 167 joint-speed exceedances). Checked at every tick of the double support
+    (record 72), the release comes 0.082 s after it and the walk passes (measured: DCM 0.080 m inside the hull at
+    the MuJoCo touch-down, outside it from 1.896 s)."""
+    log, out = tmp_path / "w.npz", tmp_path / "w.json"
+    code, err, _ = cli(PUSH_9411_5 + ["--quiet", "--log", str(log), "--json", str(out)])
+    s = json.loads(out.read_text())
+    assert code == 0 and s["passed"], (err, s["failed_criteria"])
+    assert not s["fell"] and s["joint_speed_exceedances"] == 0
+    d = np.load(log)
+    t, fz, com, q, active = d["t"], d["sim_wrench"][:, :, 2], d["com"], d["q"], d["contact_active"]
+    loaded = fz > LOADED_N
+    i0 = int(np.searchsorted(t, 1.818428572898381))
+    td = next(i for i in range(i0, len(t)) if loaded[i, 1] and not loaded[i - 5:i, 1].any())
+    omega = np.sqrt(9.81 / com[0, 2])
+    xi = com[:, :2] + np.gradient(com, t, axis=0)[:, :2] / omega
+    assert _sole_hull_margin(load_robot("talos"), q[td], xi[td]) > 0.03  # inside at the touch-down
+    ctd = next(i for i in range(i0, len(t)) if active[i, 1])  # the controller's touch-down of the right sole
+    release = next(i for i in range(ctd, len(t)) if not active[i, 0])
+    assert t[release] - t[ctd] < 0.10, (t[ctd], t[release])  # the plan's double support: 0.12 s
+    assert any(0.0 < c for c in s["step_timing_changes_s"])
 
 
 def test_push_towards_the_stance_leg_with_the_defaults_hurries_the_double_support_and_recovers():

@@ -355,14 +355,16 @@ class WalkSteps:
                 self._next += 1
 
     def _hurry_double_support(self, t: float, k: int, c, cd, xi: np.ndarray) -> None:
-        """At the touch-down of a swing (``_landed``), with timing adaptation on: when the measured DCM ``xi`` (2,) m
-        lies outside both soles' hull shrunk by the CoP margin, no CoP of the double support stops its divergence
-        (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6): the rest of the double support only lets it grow, and the
-        next step is what can capture it (a lateral push towards the stance leg: two quick steps, the first
-        landing foot cannot cross). The plan clock then jumps (``_shift``) to the next swing's ramp-out, which
-        starts now: the double support lasts the ``ramp_time`` of that ramp. The plan is re-planned from the
-        measured CoM state at the new sample (:meth:`wbc.gait.WalkPlan.replan`, footsteps unchanged), and the jump
-        is logged in ``timing_changes``."""
+        """At the touch-down of a swing (``_landed``) and at every later tick of the double support, with timing
+        adaptation on: when the measured DCM ``xi`` (2,) m lies outside both soles' hull shrunk by the CoP margin,
+        no CoP of the double support stops its divergence (``ξ̇ = ω (ξ − p)``, Englsberger 2015 eq. 6): the rest
+        of the double support only lets it grow, and the next step is what can capture it (a lateral push towards
+        the stance leg: two quick steps, the first landing foot cannot cross). The plan clock then jumps
+        (``_shift``) to the next swing's ramp-out, which starts now: the double support ends ``ramp_time`` later.
+        A push late in a swing moves the DCM out only during the double support after its touch-down, hence the
+        check at every tick of it (record 72). The plan is re-planned from the measured CoM state at the new
+        sample (:meth:`wbc.gait.WalkPlan.replan`, footsteps unchanged), and the jump is logged in
+        ``timing_changes``."""
         if self._next >= len(self.swings):
             return
         side, k_lift, _, _ = self.swings[self._next]
