@@ -230,11 +230,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
             whose swing would be faster lasting longer (:func:`wbc.gait.terrain_walk.plan_terrain_walk`
             ``max_sole_speed``). The run lasts the plan (``duration`` is set at :meth:`setup`).
         contact_events: contacts following the measured contact events (:mod:`wbc.sim.walk_contacts`; default off).
-        hurry_double_support: with ``step_adjust`` and ``adjust_timing``: a double support between two steps ends
-            as soon as the measured DCM lies outside both soles' hull (shrunk by ``cop_margin``) — at the touch-down
-            or at any later tick of it (a push arriving late in a swing moves the DCM out during the double
-            support) — the next swing's ramp-out starting then (:meth:`WalkScenario._hurry_double_support`; default
-            True).
+        hurry_double_support: with ``step_adjust`` and ``adjust_timing``: a double support ends once the measured
+            DCM is outside both soles' hull (shrunk by ``cop_margin``), at its touch-down or any later tick, the next
+            swing's ramp-out starting then (:meth:`WalkScenario._hurry_double_support`; default True).
         impact_window: s before a swing's planned touch-down (and after it, while the sole is in swing) in which
             the ID controller bounds the leg joints' speeds after the impact of that sole, flat or on a corner
             (:class:`wbc.constraints.impact.ImpactSpeedBounds`, added to its QP at :meth:`setup`); 0: off.
@@ -663,7 +661,6 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         cdx, cdy, _ = cd.tolist()
         xix, xiy = cx + cdx / w, cy + cdy / w
         xi = np.array([xix, xiy])
-        # at a touch-down and at every tick of the double support after it (no swing in progress)
         if self.step_adjust and self.adjust_timing and self.hurry_double_support \
                 and (self._landed is not None or (not self._active and self._next > 0)):
             self._hurry_double_support(t, k, c, cd, xi)
