@@ -64,25 +64,32 @@ def _sole_hull_margin(robot, q: np.ndarray, xy: np.ndarray) -> float:
     return best if inside else -best
 
 
+def _passed_walk_and_touch_down(cli, tmp_path, args, push_time):
+    """Run ``wbc`` ``args`` with a log; assert it passed with no fall and no joint past its speed limit. Returns the
+    summary, the log, the tick of the right sole's first MuJoCo load after ``push_time`` (s) and the signed margin
+    (m, positive inside) of the plant's DCM — its CoM plus the finite-difference velocity over ω — to both soles'
+    hull at that tick."""
+    log, out = tmp_path / "w.npz", tmp_path / "w.json"
+    code, err, _ = cli(args + ["--quiet", "--log", str(log), "--json", str(out)])
+    s = json.loads(out.read_text())
+    assert code == 0 and s["passed"], (err, s["failed_criteria"])
+    assert not s["fell"] and s["joint_speed_exceedances"] == 0
+    d = np.load(log)
+    t, com, loaded = d["t"], d["com"], d["sim_wrench"][:, :, 2] > LOADED_N
+    i0 = int(np.searchsorted(t, push_time))
+    td = next(i for i in range(i0, len(t)) if loaded[i, 1] and not loaded[i - 5:i, 1].any())
+    xi = com[:, :2] + np.gradient(com, t, axis=0)[:, :2] / np.sqrt(9.81 / com[0, 2])
+    return s, d, td, _sole_hull_margin(load_robot("talos"), d["q"][td], xi[td])
+
+
 def test_wrong_leg_push_ends_the_double_support_at_the_touch_down_and_passes(cli, tmp_path):
     """The run passes with no joint past its speed limit. At the first touch-down after the push (the right sole's
     first MuJoCo load), the DCM — from the plant's CoM and its finite-difference velocity — lies outside both soles'
     hull; MuJoCo unloads the left sole within 0.06 s of that touch-down (the plan's double support is 0.12 s), and
     the summary logs that jump of the plan clock among its timing changes (positive, s earlier)."""
-    log, out = tmp_path / "w.npz", tmp_path / "w.json"
-    code, err, _ = cli(PUSH_7401_87 + ["--quiet", "--log", str(log), "--json", str(out)])
-    s = json.loads(out.read_text())
-    assert code == 0 and s["passed"], (err, s["failed_criteria"])
-    assert not s["fell"] and s["joint_speed_exceedances"] == 0
-    d = np.load(log)
-    t, fz, com, q = d["t"], d["sim_wrench"][:, :, 2], d["com"], d["q"]
-    loaded = fz > LOADED_N
-    i0 = int(np.searchsorted(t, PUSH_TIME))
-    td = next(i for i in range(i0, len(t)) if loaded[i, 1] and not loaded[i - 5:i, 1].any())
+    s, d, td, margin = _passed_walk_and_touch_down(cli, tmp_path, PUSH_7401_87, PUSH_TIME)
+    t, loaded = d["t"], d["sim_wrench"][:, :, 2] > LOADED_N
     assert loaded[td, 0]  # the left sole carried the robot when the right one touched down
-    omega = np.sqrt(9.81 / com[0, 2])
-    xi = com[:, :2] + np.gradient(com, t, axis=0)[:, :2] / omega
-    margin = _sole_hull_margin(load_robot("talos"), q[td], xi[td])
     assert margin < 0.0, margin
     lift = next(i for i in range(td, len(t)) if not loaded[i, 0])
     assert t[lift] - t[td] < 0.06, (t[td], t[lift])
@@ -103,19 +110,11 @@ def test_push_late_in_a_swing_ends_the_double_support_when_the_dcm_leaves_the_so
     robot falls (base drop at 3.05 s, 167 joint-speed exceedances). Checked at every tick of the double support
     (record 72), the release comes 0.082 s after it and the walk passes (measured: DCM 0.080 m inside the hull at
     the MuJoCo touch-down, outside it from 1.896 s)."""
-    log, out = tmp_path / "w.npz", tmp_path / "w.json"
-    code, err, _ = cli(PUSH_9411_5 + ["--quiet", "--log", str(log), "--json", str(out)])
-    s = json.loads(out.read_text())
-    assert code == 0 and s["passed"], (err, s["failed_criteria"])
-    assert not s["fell"] and s["joint_speed_exceedances"] == 0
-    d = np.load(log)
-    t, fz, com, q, active = d["t"], d["sim_wrench"][:, :, 2], d["com"], d["q"], d["contact_active"]
-    loaded = fz > LOADED_N
-    i0 = int(np.searchsorted(t, 1.818428572898381))
-    td = next(i for i in range(i0, len(t)) if loaded[i, 1] and not loaded[i - 5:i, 1].any())
-    omega = np.sqrt(9.81 / com[0, 2])
-    xi = com[:, :2] + np.gradient(com, t, axis=0)[:, :2] / omega
-    assert _sole_hull_margin(load_robot("talos"), q[td], xi[td]) > 0.03  # inside at the touch-down
+    push_time = 1.818428572898381
+    s, d, td, margin = _passed_walk_and_touch_down(cli, tmp_path, PUSH_9411_5, push_time)
+    assert margin > 0.03  # inside at the touch-down
+    t, active = d["t"], d["contact_active"]
+    i0 = int(np.searchsorted(t, push_time))
     ctd = next(i for i in range(i0, len(t)) if active[i, 1])  # the controller's touch-down of the right sole
     release = next(i for i in range(ctd, len(t)) if not active[i, 0])
     assert t[release] - t[ctd] < 0.10, (t[ctd], t[release])  # the plan's double support: 0.12 s
