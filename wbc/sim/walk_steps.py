@@ -39,17 +39,25 @@ class WalkSteps:
         eq. 6) out of any reach — and the other foot steps instead, towards it (a closing step: the feet are wide
         apart after a lateral recovery step; the CoP stays on the sole under the DCM). "Over that sole" also asks the DCM to lie within
         the sole's length along its heading: a DCM far ahead of the sole (a forward push at the end of the walk) is
-        captured by that foot stepping forward, not by lifting the other one, on which the DCM then nearly stands."""
+        captured by that foot stepping forward, not by lifting the other one, on which the DCM then nearly stands.
+
+        Either choice is then checked on the LIPM (:meth:`_capture_excess`): when the other foot's step needs less
+        than the chosen one's beyond the step adjuster's reach, the other foot steps. After a wide lateral step the
+        DCM can lie just inside the landed sole's inner half or ahead of it, and lifting that sole leaves the CoP on
+        the far one, 0.6–0.8 m from the DCM (14 of 32 falls after pushes late in the walk, record 74)."""
         mid = 0.5 * (self._data.oMf[self._fid["left"]].translation[:2] + self._data.oMf[self._fid["right"]].translation[:2])
         lat = self._data.oMf[self._fid["left"]].rotation[:2, 1]  # towards the left sole
-        side = "left" if (xi - mid) @ lat >= 0 else "right"
-        sign = 1.0 if side == "left" else -1.0
+        dcm_side = "left" if (xi - mid) @ lat >= 0 else "right"
+        side, sign = dcm_side, 1.0 if dcm_side == "left" else -1.0
         rel = xi - self._data.oMf[self._fid[side]].translation[:2]
         fwd = self._data.oMf[self._fid[side]].rotation[:2, 0]
         if sign * float(rel @ lat) > -0.5 * self.robot.sole_width \
                 and abs(float(rel @ fwd)) <= 0.5 * self.robot.sole_length:
             side = "right" if side == "left" else "left"
-            self.recovery_swapped = True
+        other = "right" if side == "left" else "left"
+        if self._capture_excess(xi, other) < self._capture_excess(xi, side):
+            side = other
+        self.recovery_swapped = side != dcm_side
         rec = type(self)(2, 0.0, self.step_duration, t_init=0.06, settle=self.settle, from_state=True,
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            zmp_feedback=self.zmp_feedback,
@@ -61,6 +69,25 @@ class WalkSteps:
             self.recovery_failures += 1  # (not tried again: see the trigger in update)
             return
         self._recovery, self._t_recovery = rec, float(t)
+
+    def _capture_excess(self, xi: np.ndarray, side: str) -> float:
+        """How far (m) the landing that captures the measured DCM ``xi`` (2,) m lies outside the step adjuster's
+        reach when ``side`` steps: the other sole is the stance, the CoP at the point of that sole (shrunk by the CoP
+        margin) nearest the DCM for a swing of ``t_ss`` s, the DCM then at ``p + (ξ − p) e^{ω t_ss}`` (Englsberger
+        2015, eq. 6), and the reach the adjuster's box in the stance sole's frame (forward/backward, and laterally
+        from ``min_width`` to ``max_width`` on the stepping foot's side: no leg crossing). 0 inside the reach."""
+        stance = "right" if side == "left" else "left"
+        M = self._data.oMf[self._fid[stance]]
+        R, o = M.rotation[:2, :2], M.translation[:2]
+        r = R.T @ (np.asarray(xi, float) - o)  # DCM in the stance sole's frame (x forward, y left)
+        hl = 0.5 * self.robot.sole_length - self.cop_margin
+        hw = 0.5 * self.robot.sole_width - self.cop_margin
+        p = np.array([min(max(r[0], -hl), hl), min(max(r[1], -hw), hw)])
+        x, y = p + (r - p) * math.exp(self.plan.omega * self.t_ss)
+        lat = y if side == "left" else -y
+        a = self.adjuster
+        return max(0.0, x - a.max_forward) + max(0.0, -x - a.max_backward) + max(0.0, a.min_width - lat) \
+            + max(0.0, lat - a.max_width)
 
     def _recovery_update(self, t, controller, sim, q, v):
         rec = self._recovery

@@ -1,0 +1,45 @@
+"""The capture step after the last planned step is taken by the foot whose lift leaves the DCM within reach
+(issue 61, record 74).
+
+Trial 402 of push campaign 9412 (``wbc campaign run --kind push --seed 9412``, Talos): 320 N for 0.1 s at 4.454 s
+towards 287.8° (right, slightly forward) while the left foot swings its last planned step — a push towards the
+stance leg. The left lands next to the right, the right then steps 0.6 m out to the right and lands with the DCM
+over its inner half, the feet 0.75 m apart. The capture step that follows (``WalkScenario._start_recovery``) lifted
+the foot on the DCM's side — the right, on which the DCM stands — on main 2ea5cc3, leaving the CoP on the left sole
+0.6 m from the DCM: the base dropped at 5.46 s. With the side checked on the LIPM
+(``WalkSteps._capture_excess``) the left foot steps and the walk passes.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+PUSH_9412_402 = ["sim", "walk", "--steps", "8", "--step-length", "0.25", "--step-duration", "0.6", "--push",
+                 "319.69296804972987", "--push-time", "4.454422434811134", "--push-dir", "287.8496754177296",
+                 "--push-duration", "0.1", "--plant", "realistic", "--state", "estimated", "--seed", "402"]
+PUSH_TIME = 4.454422434811134
+
+
+def test_capture_step_after_a_wide_step_lifts_the_foot_away_from_the_dcm_and_passes(cli, tmp_path):
+    """The run passes with no fall and no joint past its speed limit. At each sole the controller releases after
+    the push, the plant's DCM (its CoM plus the finite-difference velocity over ω = √(g / z₀)) is measured against
+    both soles; at the first release with the soles more than 0.5 m apart — the capture step after the wide one —
+    the DCM is more than 0.4 m nearer the sole that stays than the one lifted. The walk ends 0.49 m off its line
+    (measured), which the pass criterion on the walked distance counts: it is the only criterion failed."""
+    log, out = tmp_path / "w.npz", tmp_path / "w.json"
+    code, err, _ = cli(PUSH_9412_402 + ["--quiet", "--log", str(log), "--json", str(out)])
+    s = json.loads(out.read_text())
+    d = np.load(log)
+    t, com, sole, active = d["t"], d["com"], d["sole_pos"], d["contact_active"].astype(bool)
+    xi = com[:, :2] + np.gradient(com, t, axis=0)[:, :2] / np.sqrt(9.81 / com[0, 2])
+    i0 = int(np.searchsorted(t, PUSH_TIME))
+    i, j = next((i, j) for i in range(i0, len(t)) for j in range(2) if active[i - 1, j] and not active[i, j]
+                and np.linalg.norm(sole[i, 0, :2] - sole[i, 1, :2]) > 0.5)
+    lifted = np.linalg.norm(xi[i] - sole[i, j, :2])
+    stays = np.linalg.norm(xi[i] - sole[i, 1 - j, :2])
+    assert lifted - stays > 0.4, (t[i], j, lifted, stays)
+    assert not s["fell"] and s["completed"] and s["joint_speed_exceedances"] == 0, s["failed_criteria"]
+    assert code == 1 and [c.split(":")[0] for c in s["failed_criteria"]] == [
+        "walked distance within 5% (≥ 1 cm) of the target"], (err, s["failed_criteria"])
