@@ -7,7 +7,7 @@ stance leg. The left lands next to the right, the right then steps 0.6 m out to 
 over its inner half, the feet 0.75 m apart. The capture step that follows (``WalkScenario._start_recovery``) lifted
 the foot on the DCM's side — the right, on which the DCM stands — on main 2ea5cc3, leaving the CoP on the left sole
 0.6 m from the DCM: the base dropped at 5.46 s. With the side checked on the LIPM
-(``WalkSteps._capture_excess``) the left foot steps and the walk passes.
+(``WalkSteps._capture_excess``) the left foot steps and the walk ends upright, with no joint past its speed limit.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ PUSH_TIME = 4.454422434811134
 
 
 def test_capture_step_after_a_wide_step_lifts_the_foot_away_from_the_dcm_and_passes(cli, tmp_path):
-    """The run passes with no fall and no joint past its speed limit. At each sole the controller releases after
+    """The run completes with no fall and no joint past its speed limit. At each sole the controller releases after
     the push, the plant's DCM (its CoM plus the finite-difference velocity over ω = √(g / z₀)) is measured against
     both soles; at the first release with the soles more than 0.5 m apart — the capture step after the wide one —
     the DCM is more than 0.4 m nearer the sole that stays than the one lifted. The walk ends 0.49 m off its line
