@@ -1,6 +1,7 @@
 """Joint speed bounds on the commanded accelerations (wbc.constraints.joint_velocity): the velocity reached after
 h ticks at the bound's acceleration, v + v̇ h dt, is exactly ±(1 − margin) q̇_max (closed form) for the 1-DoF joints
-with a URDF velocity limit; intersect only tightens; typed errors of bad margins and horizons."""
+with a URDF velocity limit; intersect only tightens; typed errors of bad margins and horizons; with the full QP's
+floor (common or per joint) they contain the full QP's joint bounds."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from wbc.constraints.joint_velocity import JointSpeedBounds, speed_margins
-from wbc.exceptions import InvalidInputError
+from wbc.exceptions import InvalidInputError, SolverError
 
 
 @pytest.mark.parametrize("horizon", [1.0, 4.0])
@@ -206,3 +207,47 @@ def test_the_relaxed_qp_follows_the_full_qps_floor_and_horizon_assigned_after_co
     lo0, hi0 = speed.bounds(v, ctrl.dt)  # its own numbers: a_brk 50, h 1
     assert np.any(lo0 > lo_f + 1e-9) or np.any(hi0 < hi_f - 1e-9)
     assert (speed.braking, speed.horizon) == (50.0, 1.0)
+
+
+def test_the_relaxed_qp_takes_each_joints_own_braking(robots):
+    """With per-joint braking accelerations on the full QP's joint bounds (``braking_share``: the drives' braking,
+    the shoulder roll's far below a_brk), the bounds of the relaxed QP the formulation hands its solver chain, at the
+    fixture tick of the tests above with every joint past its speed bound, contain the full QP's joint bounds
+    computed with those per-joint numbers (joint_acceleration_bounds, the closed form); the speed bounds with a_brk
+    alone (their own floor) do not: a joint with a small braking acceleration would be asked to brake harder in the
+    relaxed QP than in the full one, and the relaxed hard set could be empty where the full one is not."""
+    from pathlib import Path
+
+    from wbc.constraints.joint_acceleration_bounds import joint_acceleration_bounds
+    from wbc.dynamics import IDBalanceController
+    from wbc.state import DynamicsState
+
+    robot = robots("talos")
+    with np.load(Path(__file__).parents[1] / "fixtures" / "id_ankle_past_speed_limit_talos.npz") as z:
+        q, v = z["q"], z["v"].copy()
+    ctrl = IDBalanceController(robot, braking_share=1.0, speed_horizon=4.0)
+    qp = ctrl.qp
+    jl, speed = qp.joint_acceleration_limits, qp.joint_speed_limits
+    own = jl.joint_braking.copy()
+    assert np.isfinite(own).all() and own.min() < 20.0 and (own < 50.0).sum() >= 4
+    v[jl.iv] = 1.5 * np.where(v[jl.iv] < 0, -1.0, 1.0) * jl.vmax  # every joint past its bound
+    handed = []
+    solve_relaxed = qp.chain.solve_relaxed
+
+    def capture(data, **kw):
+        handed.append((data.lb.copy(), data.ub.copy()))
+        return solve_relaxed(data, **kw)
+
+    qp.chain.solve_relaxed = capture
+    try:
+        qp.solve_relaxed(DynamicsState(robot, q, v), ctrl.dt)
+    except SolverError:  # (whether it solves is not under test: the bounds it was given are)
+        pass
+    assert len(handed) == 1
+    lb, ub = handed[0][0][speed.indices], handed[0][1][speed.indices]
+    assert jl.iv.tolist() == speed.indices.tolist()
+    lo_f, hi_f = joint_acceleration_bounds(q, v, jl.iq, jl.iv, jl.qmin, jl.qmax, jl.vmax, 50.0, ctrl.dt,
+                                           speed_horizon=4.0, joint_braking=own)
+    assert np.all(lb <= lo_f + 1e-9) and np.all(ub >= hi_f - 1e-9)
+    lo0, hi0 = speed.bounds(v, ctrl.dt)  # a_brk alone
+    assert np.any(lo0 > lo_f + 1e-9) or np.any(hi0 < hi_f - 1e-9)

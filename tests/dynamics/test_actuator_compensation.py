@@ -86,6 +86,27 @@ def test_controller_mass_matrix_with_armature_equals_mujoco_realistic_plant():
     assert len(legs) == 28 and np.all(np.diag(st.M)[6:][legs] > 0.1)  # SRDF: 0.1 kg·m² on each of them
 
 
+def test_the_controllers_joint_bounds_brake_within_the_plants_drives():
+    """compensation_options gives the controller the braking of its drives (braking_share 1): each joint's braking
+    acceleration is its torque limit over its inertia in the realistic MuJoCo plant (the diagonal of MuJoCo's mass
+    matrix, rotor armature included), capped at the common a_brk of 50 rad/s²; Talos's shoulder rolls get about
+    16.5 rad/s², its shoulder pitches, knees and ankles the common 50."""
+    robot = wbc.load_robot("talos")
+    sim = build_mujoco_model(robot, plant="realistic")
+    options = compensation_options(robot, actuator_model(robot))
+    assert options["braking_share"] == 1.0
+    ctrl = IDBalanceController(robot, **options)
+    jl = ctrl.qp.joint_acceleration_limits
+    m_diag = np.diag(_mujoco_mass_matrix(sim))  # actuated joints, Pinocchio's order
+    tau = robot.model.effortLimit[jl.iv]
+    expected = np.minimum(tau / m_diag[jl.iv - 6], 50.0)
+    np.testing.assert_allclose(np.minimum(jl.joint_braking, jl.braking_acceleration), expected, rtol=1e-6)
+    names = [robot.model.names[j] for j in range(2, robot.model.njoints)]
+    by_name = dict(zip(names, np.minimum(jl.joint_braking, 50.0)))
+    assert 15.0 < by_name["arm_left_2_joint"] < 18.0 and 15.0 < by_name["arm_right_2_joint"] < 18.0
+    assert by_name["arm_left_1_joint"] == by_name["leg_left_4_joint"] == by_name["leg_right_6_joint"] == 50.0
+
+
 def test_compensation_leaves_the_shared_robot_unchanged():
     """Two controllers and a plant built from one robot: the compensated controller's armature stays its own —
     the robot's model, a second (plain) controller and an ideal MuJoCo plant built afterwards keep zero armature

@@ -447,7 +447,9 @@ def cmd_sim(args) -> int:
         "feed-forward, joint speed limits at "
         f"{1 - SPEED_MARGIN:.0%} of URDF on the legs and {1 - UPPER_BODY_SPEED_MARGIN:.0%} elsewhere, reached over "
         f"{compensation.get('speed_horizon', 1):g} ticks "
-        "(also in the relaxed QP)" if compensation and args.controller == "id"
+        "(also in the relaxed QP), the joint bounds counting on braking each joint at no more than "
+        f"{compensation.get('braking_share', 1):.0%} of its torque limit over its inertia"
+        if compensation and args.controller == "id"
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone

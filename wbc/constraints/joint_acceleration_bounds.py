@@ -14,11 +14,12 @@ from wbc.constraints.base import IDConstraint
 from wbc.constraints.contact_acceleration import contact_acceleration_rows
 from wbc.constraints.floating_base import contact_force_columns, floating_base_rows
 from wbc.constraints.torque_limits import torque_limit_rows
+from wbc.exceptions import InvalidInputError
 from wbc.geometry import check_scalar
 from wbc.robot import Robot
 from wbc.state import DynamicsState
 
-__all__ = ["JointAccelerationLimits", "JointRange", "joint_acceleration_bounds", "joint_bounds_kernel"]
+__all__ = ["JointAccelerationLimits", "JointRange", "drive_braking", "joint_acceleration_bounds", "joint_bounds_kernel"]
 
 
 class JointAccelerationLimits(IDConstraint):
@@ -30,6 +31,8 @@ class JointAccelerationLimits(IDConstraint):
     Attributes:
         braking_acceleration: a_brk (rad/s², finite, > 0), validated on assignment too.
         speed_horizon: h (ticks, finite, ≥ 1) of the velocity term, validated on assignment too.
+        joint_braking: (dim,) per-joint braking accelerations (rad/s², > 0, default ∞): joint j brakes at
+            min(a_brk, joint_braking[j]), validated on assignment too (:func:`drive_braking`).
 
     Raises:
         InvalidInputError: a_brk not a finite number > 0; on assignment, h not a finite number ≥ 1.
@@ -58,12 +61,38 @@ class JointAccelerationLimits(IDConstraint):
         self.speed_horizon = 1.0  # (joint_acceleration_bounds)
         self._lo = np.empty(self.dim)
         self._hi = np.empty(self.dim)
-        self._joints = JointRange(self.iq, self.iv, self.qmin, self.qmax, self.vmax)
+        self._joint_braking = np.full(self.dim, np.inf)  # (joint_braking; read in place by the compiled tick)
+        self._pos = {int(i): k for k, i in enumerate(self.iv)}
+        self._joints = JointRange(self.iq, self.iv, self.qmin, self.qmax, self.vmax, self._joint_braking)
         _warm_up()
         # bounds' compiled call: these arrays, of fixed types, and a state's q, v of any strides
         # (wbc.compiled.specialise; with kernel type checks on, the dispatcher)
         self._kernel = joint_bounds_kernel if CHECK_TYPES else specialise(
             joint_bounds_kernel, _strided(1), _strided(1), self._joints, 1.0, 1e-3, 1.0, self._lo, self._hi)
+
+    @property
+    def joint_braking(self) -> np.ndarray:
+        """(dim,) per-joint braking accelerations (rad/s², > 0; ``math.inf``: a_brk alone), in the order of
+        ``iv``: joint j brakes at min(a_brk, joint_braking[j]). The array the compiled tick reads: an assignment
+        is validated and copied into it.
+
+        Raises:
+            InvalidInputError: on assignment, another shape or an entry not > 0 (NaN included).
+        """
+        return self._joint_braking
+
+    @joint_braking.setter
+    def joint_braking(self, values) -> None:
+        a = np.asarray(values, dtype=float)
+        if a.shape != (self.dim,) or not (a > 0).all():
+            raise InvalidInputError(f"joint_braking must be ({self.dim},) numbers > 0 rad/s² (math.inf: a_brk "
+                                    f"alone), got {values!r}")
+        self._joint_braking[:] = a
+
+    def braking_at(self, iv: np.ndarray, cap: float = np.inf) -> np.ndarray:
+        """(len(iv),) min(``cap``, a_brk, the joint's braking) (rad/s²) of the joints of velocity indices ``iv`` (each
+        a joint of these limits): the floor with which the relaxed QP's speed bounds contain these bounds."""
+        return np.minimum(min(cap, self._braking), self._joint_braking[[self._pos[int(i)] for i in iv]])
 
     @property
     def braking_acceleration(self) -> float:
@@ -103,17 +132,19 @@ class JointRange(NamedTuple):
     qmin: np.ndarray  #: (k,) lower position limits (rad)
     qmax: np.ndarray  #: (k,) upper position limits (rad)
     vmax: np.ndarray  #: (k,) speed limits (rad/s, inf when unlimited)
+    brake: np.ndarray  #: (k,) per-joint braking accelerations (rad/s², > 0; inf: the common a_brk alone)
 
 
 @nb.njit(cache=True, nogil=True)
-def joint_bounds_kernel(q, v, joints, a, dt, horizon, lo_out, hi_out):
+def joint_bounds_kernel(q, v, joints, a_max, dt, horizon, lo_out, hi_out):
     """Compiled :func:`joint_acceleration_bounds` (the numbers of eq. 9, joint by joint) of the ``joints``
     (:class:`JointRange`), written into lo_out, hi_out (k,); the velocity term approaches ±vmax over ``horizon``
-    ticks."""
-    iq, iv, qmin, qmax, vmax = joints
+    ticks; joint j brakes at min(``a_max``, its ``brake``)."""
+    iq, iv, qmin, qmax, vmax, brake = joints
     dt2 = dt * dt
     dth = dt * horizon
     for j in range(iq.size):
+        a = min(a_max, brake[j])
         qj = q[iq[j]]
         vj = v[iv[j]]
         q1 = qj + vj * dt
@@ -136,17 +167,45 @@ def joint_bounds_kernel(q, v, joints, a, dt, horizon, lo_out, hi_out):
         hi_out[j] = hi
 
 
+def drive_braking(model, iv: np.ndarray, share: float, q: np.ndarray, tau_max: np.ndarray | None = None) -> np.ndarray:
+    """(len(iv),) braking accelerations (rad/s²) the drives of the joints of velocity indices ``iv`` can give at the
+    configuration ``q`` (nq,): ``share`` × τ_max / M_jj(q), the joint's torque limit (``tau_max`` (len(iv),) N·m, a
+    QP's possibly scaled limits; default the URDF's) over its own inertia
+    (the diagonal of the joint-space mass matrix, rotor armature included when ``model.armature`` has it; the other
+    joints held); ``math.inf`` for a joint without a positive torque limit. The remaining 1 − ``share`` of the torque
+    is left to gravity and to the other joints' accelerations. A viability bound that assumes more braking than the
+    drive gives (eq. 9 with one a_brk for every joint; Talos's shoulder roll gives 16.5 rad/s² at most against the
+    common 50) lets the joint reach a speed or a position from which the full QP cannot stop it within the torque
+    limits: the full QP is infeasible and the relaxed one, without torque and joint limits, drives the joint on
+    (benchmarks/records/75).
+
+    Raises:
+        InvalidInputError: ``share`` not in (0, 1].
+    """
+    import pinocchio as pin
+
+    if isinstance(share, bool) or not isinstance(share, (int, float, np.floating)) or not 0.0 < share <= 1.0:
+        raise InvalidInputError(f"share must be a number in (0, 1], got {share!r}")
+    mii = np.diag(pin.crba(model, model.createData(), np.asarray(q, dtype=float)))[iv]
+    tau = np.asarray(model.effortLimit if tau_max is None else tau_max, dtype=float)
+    tau = tau[iv] if tau_max is None else tau
+    return np.where(tau > 0, share * tau / np.where(tau > 0, mii, 1.0), np.inf)
+
+
 def joint_acceleration_bounds(q, v, iq, iv, qmin, qmax, vmax, braking_acceleration: float, dt: float, *,
-                              lo: np.ndarray | None = None, hi: np.ndarray | None = None, speed_horizon: float = 1.0):
+                              lo: np.ndarray | None = None, hi: np.ndarray | None = None, speed_horizon: float = 1.0,
+                              joint_braking: np.ndarray | None = None):
     """(lo, hi) joint acceleration bounds (rad/s²) of eq. 9 (position, velocity and viability with braking
     acceleration a_brk; del Prete 2018, IEEE RA-L 3(1):281–288, §III–IV) for the 1-DoF joints with configuration
     indices ``iq`` and velocity indices ``iv`` (limits qmin, qmax (rad), vmax (rad/s, inf when unlimited)).
     The velocity term is (±vmax − v) / (h dt), h = ``speed_horizon`` (ticks, ≥ 1; 1: eq. 9's one-tick bound; see
-    :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` for h > 1). Written into ``lo``/``hi`` when given."""
+    :class:`~wbc.constraints.joint_velocity.JointSpeedBounds` for h > 1); joint j brakes at min(a_brk,
+    ``joint_braking[j]``) (rad/s²; None: a_brk). Written into ``lo``/``hi`` when given."""
     k = len(iq)
     lo = np.empty(k) if lo is None else lo
     hi = np.empty(k) if hi is None else hi
-    joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), float(braking_acceleration), float(dt),
+    brake = np.full(k, np.inf) if joint_braking is None else np.asarray(joint_braking, dtype=float)
+    joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax, brake), float(braking_acceleration), float(dt),
                         float(speed_horizon), lo, hi)
     return lo, hi
 
@@ -157,7 +216,7 @@ def _warm_up() -> None:
     :class:`JointAccelerationLimits`, not inside a controller's first tick: on arrays of the types of a real call (M
     column-major as a :class:`~wbc.state.DynamicsState`'s, the rest C-contiguous)."""
     z, i = np.zeros(1), np.zeros(1, dtype=np.int64)
-    joints = JointRange(i, i, -np.ones(1), np.ones(1), np.ones(1))
+    joints = JointRange(i, i, -np.ones(1), np.ones(1), np.ones(1), np.ones(1))
     for q, v in ((z, z), (_strided(1), _strided(1))):  # (JointAccelerationLimits.bounds: q, v of any strides)
         joint_bounds_kernel(q, v, joints, 1.0, 1e-3, 1.0, np.empty(1), np.empty(1))
     nv = 7

@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.constants import SIDES
+from wbc.constraints.joint_acceleration_bounds import drive_braking
 from wbc.constraints.joint_velocity import JointSpeedBounds, speed_margins
 from wbc.constraints.sole_contact import SoleContact
 from wbc.dynamics.actuator_compensation import JointFrictionCompensation
@@ -79,10 +80,15 @@ class IDBalanceController:
             the diagonal of the controller's mass matrix. The controller then works on its own copy of the robot
             (``self.robot``, its ``model.armature[6:]`` set); the ``robot`` passed in is left unchanged, so other
             controllers and plants built from it do not inherit the armature. None: the model's own armature.
+        braking_share: the share of each joint's torque limit its joint bounds may count on to brake, in (0, 1]:
+            joint j brakes at min(a_brk, share × τ_max,j / M_jj(q_ref)) (its own inertia, armature included;
+            :func:`~wbc.constraints.joint_acceleration_bounds.drive_braking`) in the full QP's viability and speed
+            terms, and in the relaxed QP's speed bounds. None: a_brk for every joint.
 
     Raises:
         InvalidInputError: unknown gain names or bad values, a compensation of the wrong type or size, a speed
-            margin outside [0, 1), a speed horizon < 1, an armature of the wrong size or negative.
+            margin outside [0, 1), a speed horizon < 1, an armature of the wrong size or negative, a braking share
+            outside (0, 1].
             UnknownSolverError: unknown solver.
     """
 
@@ -90,7 +96,7 @@ class IDBalanceController:
     def __init__(self, robot: Robot, *, dt: float = 0.002, solver: str = "fast", mu: float = 0.7,
                  f_min: float = 0.0, sole_margin: float = 0.0, gains: dict[str, float] | None = None,
                  compensation: JointFrictionCompensation | None = None, speed_margin=0.0,
-                 speed_horizon: float = 1.0, armature=None, **qp_options):
+                 speed_horizon: float = 1.0, armature=None, braking_share: float | None = None, **qp_options):
         if armature is not None:
             robot = _with_armature(robot, armature)
         unknown = set(gains or {}) - set(DEFAULT_GAINS)
@@ -132,6 +138,8 @@ class IDBalanceController:
         jl.speed_horizon = speed.horizon
         if margins.any():
             jl.vmax[:] *= 1.0 - margins[jl.iv - 6]  # in place: the compiled tick reads it
+        if braking_share is not None:
+            jl.joint_braking = drive_braking(robot.model, jl.iv, braking_share, robot.q_ref, self.qp.tau_max[jl.iv - 6])
         if compensation is not None and (not isinstance(compensation, JointFrictionCompensation)
                                          or compensation.damping.size != robot.nv - 6):
             raise InvalidInputError(f"compensation must be a JointFrictionCompensation of size {robot.nv - 6}, "

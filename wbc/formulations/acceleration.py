@@ -260,7 +260,7 @@ class InverseDynamicsQP:
         self._qp_views: dict[int, QPData] = {}  # build's QPData of these buffers by equality row count
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
-        self._buffers = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax),
+        self._buffers = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax, jl.joint_braking),
                          IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
                                   self._JcT),
                          IDAssemblyWork(np.zeros((nv, nv)), np.zeros(nv), np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
@@ -357,7 +357,7 @@ class InverseDynamicsQP:
                 lb[con.indices], ub[con.indices] = -np.inf, np.inf
         if state is not None and self.joint_limits and (sb := self.joint_speed_limits) is not None:  # the full QP's h
             jl, floor = self.joint_acceleration_limits, sb.braking  # and ≤ its a_brk: a relaxation (joint_velocity)
-            sb.intersect(state.v, dt, lb, ub, horizon=jl.speed_horizon, braking=min(floor, jl.braking_acceleration))
+            sb.intersect(state.v, dt, lb, ub, horizon=jl.speed_horizon, braking=jl.braking_at(sb.indices, floor))
         return l, u, lb, ub
 
     def solve_relaxed(self, state: DynamicsState, dt: float, *, reuse_assembly: bool = False) -> IDCommand:

@@ -28,7 +28,7 @@ __all__ = ["contact_rows_well_conditioned", "inverse_diagonal", "id_assemble", "
 IDTaskRows = namedtuple("IDTaskRows", "Jt R pidx rt")
 IDDynamics = namedtuple("IDDynamics", "M h q v dt")
 IDContactData = namedtuple("IDContactData", "Jc Gc cdrift ckd active")
-IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax")
+IDLimits = namedtuple("IDLimits", "idx lim par qmin qmax vmax brake")
 IDArrays = namedtuple("IDArrays", "H g A b C l u lb ub JcT")
 IDAssemblyWork = namedtuple("IDAssemblyWork", "Hw gw gram gram_y jlo jhi")
 #: the buffers of :func:`output_violations`
@@ -202,7 +202,7 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
     Jt, R, pidx, rt = tasks
     M, h, q, v, dt = dynamics
     Jc, Gc, cdrift, ckd, active = contacts
-    idx, lim, par, qmin, qmax, vmax = limits
+    idx, lim, par, qmin, qmax, vmax, brake = limits
     nt = lim.shape[0]
     k = qmin.shape[0]
     vrows, iq, iv = idx[0:nt], idx[nt:nt + k], idx[nt + k:nt + 2 * k]
@@ -220,8 +220,8 @@ def id_assemble(tasks, dynamics, contacts, limits, qp, work):
             m += 6
     torque_limit_rows(M, h, JcT, vrows, lim, C, l, u, 0)
     if par[PAR_JOINT_LIMITS] != 0.0:
-        joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax), par[PAR_BRAKING], dt, par[PAR_SPEED_HORIZON],
-                            jlo, jhi)
+        joint_bounds_kernel(q, v, JointRange(iq, iv, qmin, qmax, vmax, brake), par[PAR_BRAKING], dt,
+                            par[PAR_SPEED_HORIZON], jlo, jhi)
         for j in range(iv.size):
             lb[iv[j]] = jlo[j]
             ub[iv[j]] = jhi[j]

@@ -41,7 +41,7 @@ from wbc.exceptions import InvalidInputError
 __all__ = ["ActuatorModel", "actuator_model", "nominal_armature", "apply_actuators", "compensation_options",
            "PLANTS", "ROTOR_ARMATURE", "NO_LOAD_SPEED_FACTOR", "SPEED_MARGIN", "UPPER_BODY_SPEED_MARGIN",
            "SPEED_HORIZON", "leg_joints", "joint_speed_margins",
-           "SPEED_HORIZON_PER_DELAY_TICK", "speed_horizon"]
+           "SPEED_HORIZON_PER_DELAY_TICK", "speed_horizon", "BRAKING_SHARE"]
 
 PLANTS = ("ideal", "realistic")
 #: Fraction of the URDF joint speed limits the controller keeps free on a realistic plant, on the leg joints (the
@@ -53,6 +53,13 @@ SPEED_MARGIN = 0.05
 #: velocity reveals (benchmarks/README.md, pushed walks on the realistic plant). They do not carry the robot, so a
 #: lower bound on their speed costs the gait nothing.
 UPPER_BODY_SPEED_MARGIN = 0.3
+#: Share of each joint's torque limit the controller's joint bounds may count on to brake that joint on a realistic
+#: plant (:func:`wbc.constraints.joint_acceleration_bounds.drive_braking`: min(a_brk, share × τ_max / M_jj(q_ref)), the
+#: joint's inertia with the rotor armature): 1, no more than the drive gives on the joint's own inertia. On Talos the
+#: shoulder rolls brake at 16.5 rad/s² instead of the common 50, the waist at 27 and 35, the elbows at 42, the forearm
+#: rolls at 28 and the head pitch at 38; the legs keep 50. Half the torque (0.5) also cut the shoulder pitches to 42
+#: and lost more survivors to their speed than it saved (benchmarks/records/75).
+BRAKING_SHARE = 1.0
 #: Ticks over which the controller's joint speed bounds let a joint reach the bound on a realistic plant, with no
 #: control delay (:class:`wbc.constraints.joint_velocity.JointSpeedBounds`: h ≳ e × the ~1.5-tick lag of the
 #: estimated joint velocities); :func:`speed_horizon` adds :data:`SPEED_HORIZON_PER_DELAY_TICK` per tick of delay.
@@ -288,8 +295,8 @@ def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_
     drives ``act``: ``{"armature": (nv − 6,) kg·m² (its mass matrix includes it, on the controller's own copy of the
     model), "compensation": friction/damping feed-forward, "speed_margin": (nv − 6,) per-joint margins
     (:func:`joint_speed_margins`: ``speed_margin`` on the legs, ``upper_body_margin`` elsewhere), "speed_horizon":
-    speed_horizon(delay)}`` (``delay``: the control delay in ticks the controller runs with). ``robot`` is not
-    modified.
+    speed_horizon(delay), "braking_share": BRAKING_SHARE}`` (``delay``: the control delay in ticks the controller runs
+    with). ``robot`` is not modified.
 
     Raises:
         InvalidInputError: a drive model of another size, a margin outside [0, 1).
@@ -300,4 +307,4 @@ def compensation_options(robot, act: ActuatorModel, speed_margin: float = SPEED_
         raise InvalidInputError(f"drive model of {act.armature.size} joints for a robot with {robot.model.nv - 6}")
     return {"armature": act.armature.copy(), "compensation": JointFrictionCompensation(act.damping, act.friction),
             "speed_margin": joint_speed_margins(robot, speed_margin, upper_body_margin),
-            "speed_horizon": speed_horizon(delay)}
+            "speed_horizon": speed_horizon(delay), "braking_share": BRAKING_SHARE}
