@@ -64,16 +64,22 @@ def _sole_hull_margin(robot, q: np.ndarray, xy: np.ndarray) -> float:
     return best if inside else -best
 
 
-def _passed_walk_and_touch_down(cli, tmp_path, args, push_time):
-    """Run ``wbc`` ``args`` with a log; assert it passed with no fall and no joint past its speed limit. Returns the
+def _passed_walk_and_touch_down(cli, tmp_path, args, push_time, speed_failure=None):
+    """Run ``wbc`` ``args`` with a log; assert it passed with no fall and no joint past its speed limit (or, with
+    ``speed_failure`` (joint, ratio), that it failed on that joint's speed alone, at most that ratio). Returns the
     summary, the log, the tick of the right sole's first MuJoCo load after ``push_time`` (s) and the signed margin
     (m, positive inside) of the plant's DCM — its CoM plus the finite-difference velocity over ω — to both soles'
     hull at that tick."""
     log, out = tmp_path / "w.npz", tmp_path / "w.json"
     code, err, _ = cli(args + ["--quiet", "--log", str(log), "--json", str(out)])
     s = json.loads(out.read_text())
-    assert code == 0 and s["passed"], (err, s["failed_criteria"])
-    assert not s["fell"] and s["joint_speed_exceedances"] == 0
+    if speed_failure is None:
+        assert code == 0 and s["passed"], (err, s["failed_criteria"])
+        assert not s["fell"] and s["joint_speed_exceedances"] == 0
+    else:
+        assert not s["fell"] and s["completed"] and [c.split(":")[0] for c in s["failed_criteria"]] == [
+            "no joint above its URDF velocity limit"], s["failed_criteria"]
+        assert s["max_joint_speed_joint"] == speed_failure[0] and s["max_joint_speed_ratio"] <= speed_failure[1]
     d = np.load(log)
     t, com, loaded = d["t"], d["com"], d["sim_wrench"][:, :, 2] > LOADED_N
     i0 = int(np.searchsorted(t, push_time))
@@ -108,10 +114,13 @@ def test_push_late_in_a_swing_ends_the_double_support_when_the_dcm_leaves_the_so
     the rule at the touch-down alone keeps the planned double support: on main f5812d6 the controller releases the
     left sole 0.150 s after its right touch-down, the inner left step and the outer right step come late, and the
     robot falls (base drop at 3.05 s, 167 joint-speed exceedances). Checked at every tick of the double support
-    (record 72), the release comes 0.082 s after it and the walk passes (measured: DCM 0.080 m inside the hull at
-    the MuJoCo touch-down, outside it from 1.896 s)."""
+    (record 72), the release comes 0.082 s after it and the walk passed (measured: DCM 0.080 m inside the hull at
+    the MuJoCo touch-down, outside it from 1.896 s). Since the drives' braking (record 75) the walk ends upright and
+    complete but its right hip yaw passes its speed limit (1.073×, 3 ticks), the one criterion it fails: one of the
+    survivors the change costs (6 of 435 on campaign 9415, against 15 speed failures it saves)."""
     push_time = 1.818428572898381
-    s, d, td, margin = _passed_walk_and_touch_down(cli, tmp_path, PUSH_9411_5, push_time)
+    s, d, td, margin = _passed_walk_and_touch_down(cli, tmp_path, PUSH_9411_5, push_time,
+                                                   speed_failure=("leg_right_1_joint", 1.08))
     assert margin > 0.03  # inside at the touch-down
     t, active = d["t"], d["contact_active"]
     i0 = int(np.searchsorted(t, push_time))

@@ -79,9 +79,10 @@ def _trial_206(monkeypatch, weight):
 
 
 def test_without_the_excess_cost_the_landing_hip_yaw_passes_its_speed_limit(monkeypatch):
+    """(1.025× with the drives' braking of record 75; more than 1.1× before it.)"""
     row, ratio, hip_yaw, pulled = _trial_206(monkeypatch, 0.0)
     assert pulled == []  # (no such task in the QP)
-    assert ratio[hip_yaw] > 1.1 and not row["survived"]
+    assert ratio[hip_yaw] > 1.0 and not row["survived"]
 
 
 def test_with_it_no_joint_passes_its_limit(monkeypatch):
