@@ -1,9 +1,9 @@
-"""The clip of a box into the running box (:func:`wbc.solvers.linalg.clip_entry_into`, :func:`clip_box_into`):
-the intersection where the two overlap, else the running box's end nearest the new one (it yields, never empties)."""
+"""The clip of a box into the running box (:func:`wbc.solvers.linalg.clip_entry_into`): the intersection where the
+two overlap, else the running box's end nearest the new one (it yields, never empties)."""
 
 import numpy as np
 
-from wbc.solvers.linalg import clip_box_into, clip_entry_into
+from wbc.solvers.linalg import clip_entry_into
 
 # (running lb, ub), new (lo, hi) -> expected (lb, ub): written by hand from the rule of the module docstring
 CASES = [
@@ -21,14 +21,6 @@ def test_clip_entry_into_follows_the_rule():
         clip_entry_into(lb, ub, 1, lo, hi)
         assert (lb[1], ub[1]) == expected
         assert (lb[0], ub[0]) == (7.0, 8.0)  # the other entries untouched
-
-
-def test_clip_box_into_clips_each_entry_from_start():
-    lb = np.array([9.0] + [c[0][0] for c in CASES])
-    ub = np.array([9.5] + [c[0][1] for c in CASES])
-    clip_box_into(lb, ub, 1, np.array([c[1][0] for c in CASES]), np.array([c[1][1] for c in CASES]))
-    assert lb.tolist() == [9.0] + [c[2][0] for c in CASES]
-    assert ub.tolist() == [9.5] + [c[2][1] for c in CASES]
 
 
 def _scaled_violation_reference(x, xc, A, b, C, l, u, lb, ub) -> float:

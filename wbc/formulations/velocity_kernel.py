@@ -16,7 +16,7 @@ from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
 from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
-from wbc.solvers.linalg import carve, carve2, clip_box_into, equality_residual, row_violation
+from wbc.solvers.linalg import carve, carve2, equality_residual, row_violation
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
@@ -513,11 +513,9 @@ def command_within(v, lb, ub, C, l, u, tolerance):
 
 @once_per_process
 def load_kinematic_parts() -> float:
-    """Compile (or load), once per process, the kinematic kernels that link no solver kernel, and
-    :func:`wbc.solvers.linalg.clip_box_into` (``wbc compile`` runs it beside the solvers':
-    :data:`wbc.cli.kernels.PARTS`); returns the seconds taken (later calls: None)."""
+    """Compile (or load), once per process, the kinematic kernels that link no solver kernel (``wbc compile`` runs it
+    beside the solvers': :data:`wbc.cli.kernels.PARTS`); returns the seconds taken (later calls: None)."""
     t0 = time.perf_counter()
-    clip_box_into(-np.ones(2), np.ones(2), 0, np.zeros(1), np.zeros(1))
     fb, ib = kinematic_pack(7, 6, 0, 0)
     qp = kinematic_views.py_func(fb, ib)[0]
     form_qp(*rows_pack(1, 7, np.zeros(0, np.int64)), np.zeros(7), 0.0, 1e-6, qp.H, qp.g)

@@ -15,7 +15,7 @@ from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH
 
-__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_box_into", "clip_entry_into",
+__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_entry_into",
            "clip_eq_residual", "drop_infinite_active", "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
            "scaled_row_violation", "weighted_normal_equations"]
 
@@ -140,13 +140,6 @@ def clip_entry_into(lb, ub, i, lo, hi):
     cu = ub[i]
     lb[i] = min(max(lo, cl), cu)
     ub[i] = max(min(hi, cu), cl)
-
-
-@nb.njit(cache=True, nogil=True)
-def clip_box_into(lb, ub, start, lo, hi):
-    """:func:`clip_entry_into` of each entry of [lo, hi] (k,) into lb[start:start+k], ub[start:start+k]."""
-    for i in range(lo.shape[0]):
-        clip_entry_into(lb, ub, start + i, lo[i], hi[i])
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
