@@ -230,15 +230,29 @@ def test_a_late_swing_set_down_by_the_switcher_keeps_its_contact_through_its_ram
     assert row["survived"] and not row["fell"], row
 
 
+#: trials of push campaign 9409 (contact events on) in which a stance sole is released by a loss of cause
+#: ``unloaded`` shortly before its planned ramp-out, and when (sole, window of the release in s). Physics repeats to the
+#: digit on one machine, not across instruction sets: on AVX2 machines (record 69) trial 19's right sole is released
+#: at 4.5–4.7 s; on an AVX-512 one (s93, record 76) it rolls onto an edge instead (cut to an edge band, not released),
+#: and trial 1's right sole is released at 2.028 s, 22 ms before its swing's planned start.
+LOST_STANCE_SOLES = {19: ("right", 4.5, 4.7), 1: ("right", 1.9, 2.1)}
+
+
 def test_a_stance_sole_lost_before_its_lift_off_swings_on_time(monkeypatch):
-    """Trial 19 (413 N towards 36°): the right stance sole is unloaded and leaves the ground 32 ms before its planned
-    ramp-out; the events release it, and its swing starts at the plan's time (held instead, it stalled the walk
-    0.8 s and the robot fell). The walk lands every step and survives."""
-    row, w = _campaign_trial(monkeypatch, 19)
-    lost = [t for t, s, a in w.contact_releases if s == "right" and a == "release"]
-    assert lost and 4.5 < lost[0] < 4.7
-    starts = [t for t, s in w.swing_starts if s == "right" and t > lost[0]]
-    assert starts and starts[0] - lost[0] < 0.06
-    landed = [t for t, s, e in w.switcher.events if s == "right" and e == "touchdown" and t > starts[0]]
-    assert landed and landed[0] - starts[0] < 0.7  # a swing (0.6 s steps), not a sole held down until it loads
-    assert row["survived"] and row["completed"], row
+    """A right stance sole unloaded and leaving the ground just before its planned ramp-out (trial 19: 413 N towards
+    36°, 32 ms before; trial 1: 22 ms before): the events release it, and its swing starts at the plan's time (held
+    instead, it stalled the walk 0.8 s and the robot fell). The walk lands every step and survives. Each trial of
+    :data:`LOST_STANCE_SOLES` whose sole is released in its window is checked; at least one must be."""
+    checked = 0
+    for index, (side, t0, t1) in LOST_STANCE_SOLES.items():
+        row, w = _campaign_trial(monkeypatch, index)
+        lost = [t for t, s, a in w.contact_releases if s == side and a == "release" and t0 < t < t1]
+        if not lost:
+            continue
+        checked += 1
+        starts = [t for t, s in w.swing_starts if s == side and t > lost[0]]
+        assert starts and starts[0] - lost[0] < 0.06, (index, lost, w.swing_starts)
+        landed = [t for t, s, e in w.switcher.events if s == side and e == "touchdown" and t > starts[0]]
+        assert landed and landed[0] - starts[0] < 0.7, index  # a swing (0.6 s steps), not a sole held until it loads
+        assert row["survived"] and row["completed"], (index, row)
+    assert checked, f"no trial of {sorted(LOST_STANCE_SOLES)} released its stance sole in its window"
