@@ -119,7 +119,7 @@ class QPBackend(ABC):
     def _solve(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray | None:
         """Raw solution, or None on failure."""
 
-    #: active-set iterations of the last solver call (0 for a backend that does not report them).
+    #: active-set iterations of the last solve attempt, every solver call it made (0: a backend that reports none).
     last_iterations: int = 0
     #: iterations counted as one more :class:`TickWork` solve
     iterations_per_solve: int = ITERATIONS_PER_SOLVE

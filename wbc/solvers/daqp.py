@@ -72,8 +72,6 @@ class DaqpBackend(QPBackend, role="daqp"):
         self._cold_ran = False
         self._dual: np.ndarray | None = None
         self._layout: tuple[int, int, int] | None = None
-        #: DAQP iterations of the last solve attempt (every call it made).
-        self.last_iterations = 0
         #: DAQP's multipliers of the last solve that returned a solution ((n + n_eq + n_in,): bounds, equality rows,
         #: inequality rows; > 0 at an upper side, < 0 at a lower one), else None.
         self.last_multipliers: np.ndarray | None = None

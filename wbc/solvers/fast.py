@@ -1,13 +1,11 @@
 """The compiled exact backend, ``fast``: :class:`FastBackend`, the in-house active-set kernels with DAQP as fallback.
 
 A QP goes to :func:`wbc.solvers.active_set.solve_qp_into` (Goldfarb–Idnani), warm-started. It ends only at a KKT
-point (the exact optimum); a call that does not (iteration cap, H not positive definite, dependent equalities) goes to the
-:class:`~wbc.solvers.daqp.DaqpBackend` it extends.
+point (the exact optimum); a call that does not (iteration cap, H not positive definite, dependent equalities) goes
+to the :class:`~wbc.solvers.daqp.DaqpBackend` it extends.
 """
 
 from __future__ import annotations
-
-import time
 
 import numpy as np
 
@@ -122,9 +120,7 @@ class FastBackend(DaqpBackend):
 
 
 @once_per_process
-def load_fast_kernels() -> float:
+def load_fast_kernels() -> None:
     """Compile (or load) the kernels :class:`FastBackend` calls (their modules' loaders: the same argument types),
-    once per process; returns the seconds taken (later calls: None)."""
-    t0 = time.perf_counter()
+    once per process."""
     load_active_set_kernels()
-    return time.perf_counter() - t0

@@ -15,9 +15,9 @@ from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH
 
-__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_entry_into",
-           "clip_eq_residual", "drop_infinite_active", "equality_residual", "forward_substitution", "primal_from_multipliers", "row_violation",
-           "scaled_row_violation", "weighted_normal_equations"]
+__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_entry_into", "clip_eq_residual",
+           "drop_infinite_active", "equality_residual", "forward_substitution", "primal_from_multipliers",
+           "row_violation", "scaled_row_violation", "weighted_normal_equations"]
 
 
 @register_jitable(inline="always")  # inlined in numba IR (no call, no reference counting); plain Python outside numba
