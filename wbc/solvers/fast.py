@@ -90,9 +90,8 @@ class FastBackend(DaqpBackend):
             return super().solve(H, g, A, b, C, l, u, lb, ub, confirm=confirm)
         work = self.work
         shape = (H.shape[0], A.shape[0], p)
-        gave_up = self._gave_up
-        if (self.count_give_ups or self.skip_give_ups) and work is not None and gave_up is not None \
-                and gave_up[0] is work and gave_up[1] == work.ticks and gave_up[2] == shape:
+        if (self.count_give_ups or self.skip_give_ups) and work is not None \
+                and self._gave_up == (work, work.ticks, shape):
             pass  # the kernel gave up on a problem of this shape earlier in this tick: its re-solves go to DAQP
         elif p and self._rows_failed:
             # the kernel failed on the previous call with rows (degenerate rows defeat it for stretches of ticks):
