@@ -175,9 +175,8 @@ class QPBackend(ABC):
         raise SolverError(f"QP backend {self.name!r} {what} (not confirmed by an independent solver)")
 
     def _checked(self, x, A, b, C, l, u, lb, ub, counted: bool) -> tuple[np.ndarray | None, float]:
-        """(x projected onto [lb, ub] when it meets every row to ``tolerance``, else its :meth:`polish` within
-        :data:`POLISH_RANGE`, else None; x's largest scaled violation, inf for no or a non-finite x). ``counted``: the
-        polish counts one ``work`` solve, and ``polished`` when it answers."""
+        """(x as the tolerance policy of :meth:`solve` accepts it, or None; x's largest scaled violation, inf for no or
+        a non-finite x). ``counted``: the polish counts one ``work`` solve, and ``polished`` when it answers."""
         if x is None or not np.isfinite(x).all():
             return None, math.inf
         xc = np.minimum(np.maximum(x, lb), ub)

@@ -16,8 +16,7 @@ __all__ = ["DAQP_ITERATION_COST", "DAQP_PRIMAL_TOL", "DUAL_RETRY_PRIMAL_FACTOR",
 #: DAQP's iteration cap in :class:`DaqpBackend` (unless its settings give ``iter_limit``)
 ITERATION_LIMIT = 1000
 
-#: under a counted tick work a DAQP call stops where the count would pass WORK_LIMIT_FACTOR × its cap, after at
-#: least MIN_CALL_ITERATIONS iterations (:meth:`DaqpBackend.call_limit`)
+#: factor of the work cap where a DAQP call stops, and its least iterations (:meth:`DaqpBackend.call_limit`)
 WORK_LIMIT_FACTOR = 1.9
 MIN_CALL_ITERATIONS = 10
 

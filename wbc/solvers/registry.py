@@ -1,6 +1,5 @@
-"""QP backends by name: :func:`make_backend`, :func:`available_solvers`, the default ``fast``; and the backends
-besides DAQP's: :class:`ProxQPBackend` (proxsuite's dense ProxQP, one warm-started problem per size, its iterations
-capped) and :class:`QpsolversBackend` (any backend of ``qpsolvers.solve_qp`` by name).
+"""QP backends by name (:func:`make_backend`, :func:`available_solvers`, the default ``fast``) and the backends
+besides DAQP's: :class:`ProxQPBackend` (proxsuite) and :class:`QpsolversBackend` (``qpsolvers.solve_qp``).
 
 qpsolvers is imported here, with :mod:`wbc.solvers`: its import (tens of milliseconds) would otherwise land inside
 the first tick whose failed solve :meth:`~wbc.solvers.base.QPBackend.confirm` re-solves.
