@@ -25,12 +25,11 @@ class GeneralRoute:
     def _solve_assembled(self, config: Configuration) -> np.ndarray:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist); with the clock
         guard its CPU time is recorded (the cost of the tick's next re-solve, ``TickBudget.fits``)."""
-        args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         solves = self._work.solves
         t = self._work.seconds() if self.clock_guard else 0.0
         self._weighted_from = None
         try:
-            return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
+            return self._solve_levels(config, *self._qp) if self._level_order else self._solve_flat(*self._qp)
         finally:
             # the counted work of the largest re-solve so far: the stages after it start only when one more fits
             # (after a cascade the budget cut, the tick's re-solves are its weighted form's: counted from its start)

@@ -346,7 +346,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         try:
             self.assemble(config, dt)  # targets → the tick's QP, in the controller's buffers
             self._assembled = True
-            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            fault = qp_data_fault(*self._qp)
             if fault:
                 raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
             t1 = perf_counter()

@@ -46,7 +46,7 @@ class Recovery:
                   "infeasible" if isinstance(exc, SolverError) else "exception")
         budget, work, tol = self.tick_budget, self._work, self.sole_drift_tolerance
         over_budget, conflicts = False, []
-        data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+        data_fault = qp_data_fault(*self._qp)
         late = not budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
         if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
@@ -163,8 +163,7 @@ class Recovery:
             backend.call_iterations = self.HELD_ITERATIONS
         t = self._work.seconds() if self.clock_guard else 0.0
         try:
-            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
-                self._lb, self._ub
+            H, g, A, b, C, l, u, lb, ub = self._qp
             if not self._not_hard_task.all():
                 A, b = A[self._not_hard_task], b[self._not_hard_task]
             keep = independent_rows(A, self.rank_rtol)
