@@ -119,8 +119,7 @@ class ContactHold:
         """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,), ``TickResult.sole_drift``:
         :meth:`DriftMeter.measure` against where their contact rows send them, its lever sole_drift_tolerance /
         sole_rotation_tolerance (constructor; the distance alone when either is None)."""
-        if not self._layout_ok:
-            self._build_layout()
+        self._update_layout()
         return self._contact_drifts(config, v, dt)[2]
 
     def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray], float]:

@@ -37,7 +37,7 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 
-#: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
+#: controller attributes that make up one constraint layout (``KinematicController._update_layout``)
 LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
                  "_const_prefix", "_const_box", "_box_rows", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
                  "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
@@ -63,10 +63,12 @@ class VelocityQP:
     #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)
     LAYOUT_WORK = 4
 
-    def _build_layout(self) -> None:
-        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change), kept
-        per constraint list (the same objects in the same order and row counts): a support switch back to an earlier
-        set of contacts reuses its layout, buffers and the intersection of its constant boxes."""
+    def _update_layout(self) -> None:
+        """Row layout of the equality and inequality blocks and their buffers (redone when ``_layout_ok`` is False),
+        kept per constraint list (the same objects in the same order and row counts): a support switch back to an
+        earlier set of contacts reuses its layout, buffers and the intersection of its constant boxes."""
+        if self._layout_ok:
+            return
         key = tuple((id(c), c.dim) for c in self.constraints)
         state = self.__dict__
         if self._layout_key is not None:  # keep the current layout (with what _intersect_boxes cached since)
@@ -128,9 +130,11 @@ class VelocityQP:
                                         for _ in range(r0, r1)], dtype=bool)  # equality rows kept by the fallback
         self._layout_ok = True
 
-    def _build_soft_layout(self) -> None:
+    def _update_soft_layout(self) -> None:
         """The soft tasks' stacked rows (:class:`SoftRows`), redone when ``tasks`` changes and kept per task list
         (the same task objects in the same order and sizes): a swing task that comes back reuses its layout."""
+        if self._soft_tasks == self.tasks:
+            return
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
         if cached is not None:  # (the same task objects: kept alive by it)
@@ -151,10 +155,8 @@ class VelocityQP:
     def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True) -> QPData:
         """:meth:`assemble` (the posture's q ⊖ q* and gain kept in ``_posture_diff``, ``_posture_gain``); with
         ``form_cost`` False, H and g are left to the compiled tick, with ``boxes`` False lb and ub too."""
-        if not self._layout_ok:
-            self._build_layout()
-        if self._soft_tasks != self.tasks:
-            self._build_soft_layout()
+        self._update_layout()
+        self._update_soft_layout()
         H, g, A, b, C, l, u, lb, ub = self._qp
         soft = self._soft
         soft.gather(config)
