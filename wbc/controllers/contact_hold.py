@@ -192,7 +192,7 @@ class ContactHold:
                     self._b[r0:r1] -= d / dt
                 self._project_contact_rhs(range_basis)
                 try:
-                    v_new = solve(config)
+                    v_new = solve()
                 except SolverError:
                     break  # keep the last solution (the trust region takes over)
                 self.contact_corrections += 1
@@ -243,7 +243,7 @@ class ContactHold:
                 np.maximum(self._lb, np.minimum(*box0), out=self._lb)  # never tighter than a pinned bound
                 np.minimum(self._ub, np.maximum(*box0), out=self._ub)
                 try:
-                    v_tr = solve(config)
+                    v_tr = solve()
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:
