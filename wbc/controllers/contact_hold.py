@@ -17,7 +17,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import SolverError
-from wbc.formulations.velocity_kernel import rotation_gap, translation_gap
+from wbc.lie import rotation_gap, translation_gap
 from wbc.tick import TickResult
 
 

@@ -21,8 +21,8 @@ from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
 __all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox",
            "kinematic_pack", "load_kinematic_kernels", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
-           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows",
-           "TaskRows", "TickBuffers", "translation_gap", "weighted_rows"]
+           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rows_pack", "task_rows", "TaskRows",
+           "TickBuffers", "weighted_rows"]
 
 #: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
 #: weight w, feed-forward of each row), pw (kp,) float64 posture weights, prow (kp,) int64 their velocity indices and
