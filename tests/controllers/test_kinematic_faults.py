@@ -969,9 +969,9 @@ def test_a_failed_cascade_retried_without_a_return_rate_answers_with_the_weighte
     cascades, flats = [], []  # the QPs the tick solved: strict cascades, single weighted QPs
     solve_levels, solve_flat = ctrl._solve_levels, ctrl._solve_flat
 
-    def levels_spy(config_, *qp):
+    def levels_spy(*qp):
         cascades.append([np.array(x, copy=True) for x in qp])
-        return solve_levels(config_, *qp)
+        return solve_levels(*qp)
 
     def flat_spy(*qp):
         v = solve_flat(*qp)
@@ -1043,9 +1043,9 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
     held, safe_calls = [], []  # per uncapped solve: (bounded, QPs solved, DAQP's state after, error)
     solve_constraints_only, safe_constraints_only = ctrl._solve_constraints_only, ctrl._safe_constraints_only
 
-    def uncapped_spy(config_, uncapped=False, bounded=False):
+    def uncapped_spy(uncapped=False, bounded=False):
         if not uncapped:
-            return solve_constraints_only(config_, uncapped, bounded)
+            return solve_constraints_only(uncapped, bounded)
         backend = ctrl._fallback_backend
         qps, solve = [], backend.solve
 
@@ -1056,7 +1056,7 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
         backend.solve = solve_spy
         error = None
         try:
-            return solve_constraints_only(config_, uncapped, bounded)
+            return solve_constraints_only(uncapped, bounded)
         except Exception as exc:
             error = exc
             raise

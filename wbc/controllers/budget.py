@@ -65,14 +65,12 @@ class TickBudget:
         self.first_work = self.resolve_work = self.resolve_cost = 0.0
         self.resolves = 0
 
-    def may_start(self, stage: str, cost: float | None = None, deadline: float | None = None,
-                  work: float | None = None) -> bool:
+    def may_start(self, stage: str, cost: float | None = None, work: float | None = None) -> bool:
         """May a stage start now: ``"retry"``, an optional stage of a failed tick (confirmation, relaxation,
         diagnosis), when the count is below one cap, also after one more re-solve at the counted work of the tick's
         largest re-solve so far; ``"stage"``, a further stage of a solved tick (a strict level, a contact correction,
         a trust region), when it ends within ``stage_factor`` caps at that work (the larger of ``first_work`` and
-        ``resolve_work``, or ``work`` counted solves when given); with ``cost`` (s of CPU time), also :meth:`fits`
-        (cost, deadline).
+        ``resolve_work``, or ``work`` counted solves when given); with ``cost`` (s of CPU time), also :meth:`fits`.
 
         Raises:
             InvalidInputError: ``stage`` not one of :data:`STAGES`.
@@ -85,7 +83,7 @@ class TickBudget:
             late = work.spent(self.stage_factor, ahead)
         else:
             raise InvalidInputError(f"stage must be one of {', '.join(STAGES)}, got {stage!r}")
-        return not late and (cost is None or self.fits(cost, deadline))
+        return not late and (cost is None or self.fits(cost))
 
     def fits(self, cost: float, deadline: float | None = None) -> bool:
         """A stage of ``cost`` seconds of CPU time (as timed in this tick) started now ends by ``deadline``

@@ -62,42 +62,31 @@ class CompiledTick:
                 if key != self._layout_key or not self._layout_ok:
                     known = key in self._layouts
                     self._layout_ok = False
-                    self._build_layout()
+                    self._update_layout()
                     if not known:
                         self._prepared.add(key)
-                if self._soft_tasks != self.tasks:
-                    self._build_soft_layout()
-                self._prepare_fused(config, float(dt))
+                self._update_soft_layout()
+                if not self._level_order and isinstance(self.backend, FastBackend):
+                    plan = self._kept_fused_plan()  # the compiled tick's plan of these layouts, with its box
+                    if plan.supported and plan.box is None:
+                        plan.box = self._kernel_box(config, float(dt))
         finally:
             self.tasks[:], self.constraints[:] = saved[0], saved[1]
             if saved[4] is not None and saved[3]:
                 self._layout_ok = False
-                self._build_layout()  # back to the controller's layout (kept: no build)
-                if self._soft_tasks != self.tasks:
-                    self._build_soft_layout()
+                self._update_layout()  # back to the controller's layout (kept: no build)
+                self._update_soft_layout()
             else:
                 self._layout_ok = False
             self._eq_rows = saved[2]
 
-    def _prepare_fused(self, config: Configuration, dt: float) -> None:
-        """The compiled tick's plan of the current layouts with its box (prepare_layouts)."""
-        if self._level_order or not isinstance(self.backend, FastBackend):
-            return
-        plan = self._kept_fused_plan()
-        if not plan.supported:
-            return
-        if plan.box is None:
-            plan.box = self._kernel_box(config, dt)
-
-    def _fused_plan(self, config: Configuration, dt: float) -> FusedPlan | None:
+    def _fused_plan(self) -> FusedPlan | None:
         """The compiled tick's plan for the current layouts, or None when it does not cover them (strict levels, a
         backend other than FastBackend, soft tasks with their own cost or target but a posture, a contact subclass)."""
         if self._level_order or not isinstance(self.backend, FastBackend):
             return None
-        if not self._layout_ok:
-            self._build_layout()
-        if self._soft_tasks != self.tasks:
-            self._build_soft_layout()
+        self._update_layout()
+        self._update_soft_layout()
         plan = self._kept_fused_plan()
         if plan.supported:
             nr = plan.state.shape[0]

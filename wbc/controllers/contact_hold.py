@@ -17,7 +17,7 @@ import pinocchio as pin
 from wbc.configuration import Configuration
 from wbc.constraints.contact import ContactConstraint
 from wbc.exceptions import SolverError
-from wbc.formulations.velocity_kernel import rotation_gap, translation_gap
+from wbc.lie import rotation_gap, translation_gap
 from wbc.tick import TickResult
 
 
@@ -119,8 +119,7 @@ class ContactHold:
         """Largest drift (m) of the contact frames over one tick of dt (s) with v (nv,), ``TickResult.sole_drift``:
         :meth:`DriftMeter.measure` against where their contact rows send them, its lever sole_drift_tolerance /
         sole_rotation_tolerance (constructor; the distance alone when either is None)."""
-        if not self._layout_ok:
-            self._build_layout()
+        self._update_layout()
         return self._contact_drifts(config, v, dt)[2]
 
     def _contact_drifts(self, config: Configuration, v: np.ndarray, dt: float) -> tuple[float, list[np.ndarray], float]:
@@ -193,7 +192,7 @@ class ContactHold:
                     self._b[r0:r1] -= d / dt
                 self._project_contact_rhs(range_basis)
                 try:
-                    v_new = solve(config)
+                    v_new = solve()
                 except SolverError:
                     break  # keep the last solution (the trust region takes over)
                 self.contact_corrections += 1
@@ -244,7 +243,7 @@ class ContactHold:
                 np.maximum(self._lb, np.minimum(*box0), out=self._lb)  # never tighter than a pinned bound
                 np.minimum(self._ub, np.maximum(*box0), out=self._ub)
                 try:
-                    v_tr = solve(config)
+                    v_tr = solve()
                 except SolverError:
                     break  # the contact rows cannot be met inside this region: keep the best so far
                 if self.contact_correction > 0:

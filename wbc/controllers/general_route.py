@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.configuration import Configuration
 from wbc.exceptions import SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.hierarchy import band_rows, independent_rows, solve_lexicographic
@@ -22,15 +21,14 @@ CONFIRM_ORDER = ("quadprog", "daqp", "proxqp")
 class GeneralRoute:
     """The general-route part of :class:`wbc.controllers.kinematic.KinematicController` (module docstring)."""
 
-    def _solve_assembled(self, config: Configuration) -> np.ndarray:
+    def _solve_assembled(self) -> np.ndarray:
         """Solve the QP held in the controller's buffers (flat, or the hierarchy when levels exist); with the clock
         guard its CPU time is recorded (the cost of the tick's next re-solve, ``TickBudget.fits``)."""
-        args = (self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         solves = self._work.solves
         t = self._work.seconds() if self.clock_guard else 0.0
         self._weighted_from = None
         try:
-            return self._solve_levels(config, *args) if self._level_order else self._solve_flat(*args)
+            return self._solve_levels(*self._qp) if self._level_order else self._solve_flat(*self._qp)
         finally:
             # the counted work of the largest re-solve so far: the stages after it start only when one more fits
             # (after a cascade the budget cut, the tick's re-solves are its weighted form's: counted from its start)
@@ -122,10 +120,10 @@ class GeneralRoute:
                          + ("with its contact correction, " if runs > 1 else "")
                          + f"at least {least:g} counted solves: their weighted form's command)")
 
-    def _solve_levels(self, config, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
+    def _solve_levels(self, H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
         if self._weighted_tick and self._in_solve:
             if self._weighted_qp is None:
-                self._weighted_qp = self._weighted_levels(config, H, g)
+                self._weighted_qp = self._weighted_levels(H, g)
             return self._solve_flat(*self._weighted_qp, A, b, C, l, u, lb, ub)
         levels = [(level.wJ, level.wr) for level in self._level_rows]  # gathered by assemble
         while len(self._level_backends) < len(levels):
@@ -149,7 +147,7 @@ class GeneralRoute:
                 self.tick_budget.restart_resolves()
                 self._weighted_from = (self._work.solves, self._work.seconds() if self.clock_guard else 0.0)
                 try:
-                    qp = self._weighted_levels(config, H, g)
+                    qp = self._weighted_levels(H, g)
                     v = self._solve_flat(*qp, A, b, C, l, u, lb, ub)
                     self._weighted_tick, self._weighted_qp = True, qp
                 except SolverError:

@@ -198,7 +198,6 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
             raise InvalidInputError(f"budget must be None (the tick's dt) or a number of seconds > 0 (math.inf: "
                                     f"no budget), got {value!r}")
         self._budget = None if value is None else float(value)
-        self.tick_budget.seconds = math.nan
         self._held_anchors = None  # contact frames' placements when the current run of failed ticks began
 
     def _start_work(self, budget_s: float) -> None:
@@ -330,7 +329,7 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         if plan is None or not (self._layout_ok and plan.layout_key is self._layout_key
                                 and self._soft_tasks == self.tasks and plan.soft_tasks is self._soft_tasks
                                 and plan.backend is self.backend and not self._level_order):
-            plan = self._fused_plan(config, dt)
+            plan = self._fused_plan()
         if plan is not None:
             try:
                 result = self._fused_tick(plan, config, dt, t0)
@@ -346,13 +345,13 @@ class KinematicController(CompiledTick, ContactHold, Relaxation, Recovery, Gener
         try:
             self.assemble(config, dt)  # targets → the tick's QP, in the controller's buffers
             self._assembled = True
-            fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+            fault = qp_data_fault(*self._qp)
             if fault:
                 raise SolverError(f"non-finite numbers in the tick's QP: {fault}")
             t1 = perf_counter()
             self._plan_levels()  # strict levels whose cascade cannot fit: their weighted form
             try:  # → the solver route (flat or strict levels), then the relaxation ladder
-                v, relaxed, return_rate, held = self._solve_assembled(config), [], None, False
+                v, relaxed, return_rate, held = self._solve_assembled(), [], None, False
             except SolverError as first_failure:
                 self._cap_calls(self.STAGE_ITERATIONS)  # (the tick's later solves, until its end)
                 v, relaxed, return_rate, held = self._relaxation_ladder(config, dt, first_failure)

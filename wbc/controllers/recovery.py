@@ -46,7 +46,7 @@ class Recovery:
                   "infeasible" if isinstance(exc, SolverError) else "exception")
         budget, work, tol = self.tick_budget, self._work, self.sole_drift_tolerance
         over_budget, conflicts = False, []
-        data_fault = qp_data_fault(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
+        data_fault = qp_data_fault(*self._qp)
         late = not budget.may_start("retry")  # the tick's count spent before its failure handling
         # (clock guard: the diagnosis re-assembles the QP and solves a larger one: two re-solves' time)
         if budget.may_start("retry", 2.0 * max(budget.resolve_cost, budget.safe_estimate())):
@@ -98,7 +98,7 @@ class Recovery:
                         try:
                             # β = 0 (v = 0 solves it when the box holds it): its solver's own iteration limit, not the
                             # few iterations a spent count leaves (its solves still counted)
-                            v_h = self._solve_constraints_only(config, not beta, held_first)  # (uncapped, held)
+                            v_h = self._solve_constraints_only(not beta, held_first)  # (uncapped, held)
                         except Exception as qexc:  # noqa: BLE001 — they conflict even so: next β, then hold
                             capped = getattr(self._fallback_backend, "iterations_capped", False)
                             tried.append(f"β = {beta:g}: {type(qexc).__name__}"
@@ -150,7 +150,7 @@ class Recovery:
         return TickResult(v, ok=False, message=message, conflicts=conflicts, fallback=fallback, sole_drift=drift,
                           path=TickPath("fallback", fallback=fallback), reason=reason, over_budget=over_budget)
 
-    def _solve_constraints_only(self, config: Configuration, uncapped: bool = False, held: bool = False) -> np.ndarray:
+    def _solve_constraints_only(self, uncapped: bool = False, held: bool = False) -> np.ndarray:
         """Step 2's QP (module docstring; nearly dependent rows as band rows) on the fallback backend; ``uncapped``: its
         iteration limit not lowered by the spent count (its solves still counted); ``held``: at most
         ``HELD_ITERATIONS`` per DAQP call. With the clock guard its CPU time is recorded. Raises SolverError."""
@@ -163,8 +163,7 @@ class Recovery:
             backend.call_iterations = self.HELD_ITERATIONS
         t = self._work.seconds() if self.clock_guard else 0.0
         try:
-            H, g, A, b, C, l, u, lb, ub = self._H, self._g, self._A, self._b, self._C, self._l, self._u, \
-                self._lb, self._ub
+            H, g, A, b, C, l, u, lb, ub = self._qp
             if not self._not_hard_task.all():
                 A, b = A[self._not_hard_task], b[self._not_hard_task]
             keep = independent_rows(A, self.rank_rtol)
@@ -192,7 +191,7 @@ class Recovery:
         t_stage = self._work.seconds()
         v, fallback = np.zeros(self.nv), "hold"
         try:
-            v_c = self._held_command(config, dt, self._solve_constraints_only(config), [], safe=True).v
+            v_c = self._held_command(config, dt, self._solve_constraints_only(), [], safe=True).v
             if not command_fault(v_c, self._lb, self._ub, self._C, self._l, self._u, self.backend.tolerance) and (
                     tol is None or self.sole_drift(config, v_c, dt) <= tol) and self.drift_meter.held_drift(
                     config, v_c, dt, self._contacts, anchors, 0.0, self.SAFE_COMMAND_RADIUS)[1]:

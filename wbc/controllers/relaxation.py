@@ -55,13 +55,13 @@ class Relaxation:
         if self._contact_rows.size and self._consistent_contact_rhs():
             # dependent contact rows asked contradictory corrections: once more in least squares (one solve or
             # cascade, not cut by the count: a cascade that had spent it failed ticks the weighted form solves)
-            v = self._try_solve(config)
+            v = self._try_solve()
         if v is None and self._relaxable:  # (one solve: not cut by the count)
             if not budget.fits(budget.resolve_cost):
                 raise SolverError(f"{first_failure}; relaxations skipped: tick budget spent (clock guard)")
             self._relax(config, dt)
             relaxed = [c.name for c in self._relaxable]
-            v = self._try_solve(config)
+            v = self._try_solve()
         if v is not None:
             return v, relaxed, None, False
         low, high = outside_limits(config, self._box, self._lb, self._ub)
@@ -72,10 +72,10 @@ class Relaxation:
         self._return_bounds = (low, high, self._lb[low].copy(), self._ub[high].copy())
         with self._unconfirmed() as backends:
             self._lb[low] = self._ub[high] = 0.0  # α = 0: the feasible sets are nested, none if it has none
-            v = self._try_solve(config)
+            v = self._try_solve()
             if v is None and self._contact_rows.size and budget.fits(budget.resolve_cost):
                 self._b[self._contact_rows] = 0.0  # the contacts held where they are: J_c v = 0
-                v = self._try_solve(config)
+                v = self._try_solve()
                 held = v is not None
             if v is None:
                 raise SolverError(f"{first_failure}; no solution either with the joints outside their limits held "
@@ -87,11 +87,11 @@ class Relaxation:
             for alpha in reversed(_RETURN_RATE_SCALES[:-1]):  # from the slowest return up
                 if not budget.may_start("retry", budget.resolve_cost):
                     break
-                v_alpha = self._solve_returning(config, alpha)
+                v_alpha = self._solve_returning(alpha)
                 if v_alpha is None:
                     break  # (feasible sets nested: no larger α has a solution)
                 v, return_rate = v_alpha, alpha
-            self._solve_returning(None, return_rate)  # the returned command's problem
+            self._solve_returning(return_rate, solve=False)  # the returned command's problem
         return v, self._returned(relaxed, return_rate, held), return_rate, held
 
     def _slower_return(self, config: Configuration, dt: float, relaxed: list, alpha: float,
@@ -107,23 +107,23 @@ class Relaxation:
                 if not self.tick_budget.may_start("stage", self.tick_budget.resolve_cost):
                     self._cut.append(f"slower returns below × {alpha:g}")
                     break
-                v = self._solve_returning(config, a, held)
+                v = self._solve_returning(a, held)
                 r = None if v is None else self._held_command(config, dt, v, relaxed, held=held)
                 if r is not None and r.ok:
                     r.relaxed = self._returned(relaxed[:-1], a, held)
                     return r, a
             self._b[rows] = b0
-            self._solve_returning(None, alpha)
+            self._solve_returning(alpha, solve=False)
             return result, alpha
 
-    def _solve_returning(self, config: Configuration | None, alpha: float, held: bool = False) -> np.ndarray | None:
+    def _solve_returning(self, alpha: float, held: bool = False, solve: bool = True) -> np.ndarray | None:
         """The buffers' return rate scaled by α (and J_c v = 0 when ``held``), then their command (``_try_solve``;
-        no solve when ``config`` is None)."""
+        None without a solve when ``solve`` is False)."""
         low, high, lb0, ub0 = self._return_bounds
         self._lb[low], self._ub[high] = alpha * lb0, alpha * ub0
         if held:
             self._b[self._contact_rows] = 0.0
-        return None if config is None else self._try_solve(config)
+        return self._try_solve() if solve else None
 
     @staticmethod
     def _returned(relaxed: list, alpha: float, held: bool) -> list[str]:
@@ -131,10 +131,10 @@ class Relaxation:
         return relaxed + [f"joint_position_limit return rate × {alpha:g}"] + (
             ["contact drift correction × 0 (J_c v = 0)"] if held else [])
 
-    def _try_solve(self, config: Configuration) -> np.ndarray | None:
+    def _try_solve(self) -> np.ndarray | None:
         """The command of the QP in the buffers (``_solve_assembled``), or None when that raises SolverError."""
         try:
-            return self._solve_assembled(config)
+            return self._solve_assembled()
         except SolverError:
             return None
 
@@ -173,7 +173,7 @@ class Relaxation:
         self.tick_budget.restart_resolves()
         self._weighted_tick, self._weighted_qp = True, None
         cascade_cut, self._cut = self._cut, []
-        v = self._try_solve(config)
+        v = self._try_solve()
         result = None if v is None else self._held_command(config, dt, v, relaxed)
         if result is not None and result.ok:
             self._cut = [f"the cascade's {stage}" for stage in cascade_cut] + self._cut
@@ -181,7 +181,7 @@ class Relaxation:
         self._weighted_tick, self._cut = False, cascade_cut
         return None
 
-    def _weighted_levels(self, config, H, g) -> tuple[np.ndarray, np.ndarray]:
+    def _weighted_levels(self, H, g) -> tuple[np.ndarray, np.ndarray]:
         """(H, g) of the strict levels' weighted form: the soft level's cost plus, for level k of p (0 highest),
         WEIGHTED_LEVEL_RATIO ** (p − k) × ‖J_k v − v*_k‖² (task weights applied); (nv, nv), (nv,)."""
         Hw, gw = H.copy(), g.copy()

@@ -260,9 +260,9 @@ class InverseDynamicsQP:
         self._qp_views: dict[int, QPData] = {}  # build's QPData of these buffers by equality row count
         self._assembled = None  # (id(state), dt) of the QP held in the arrays by the last solve(), else None
         idx = np.concatenate([tl.velocity_indices, jl.iq, jl.iv]).astype(np.int64)
+        qp = QPData(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
         self._buffers = (IDLimits(idx, tl.limits.copy(), self._par, jl.qmin, jl.qmax, jl.vmax, jl.joint_braking),
-                         IDArrays(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub,
-                                  self._JcT),
+                         IDArrays(*qp, self._JcT),
                          IDAssemblyWork(np.zeros((nv, nv)), np.zeros(nv), np.zeros((6 * nc, 6 * nc)), np.zeros(6 * nc),
                                         np.zeros(jl.dim), np.zeros(jl.dim)))
         self._id_assemble = None  # id_assemble specialised to these buffers and a DynamicsState's (first call)
@@ -270,7 +270,6 @@ class InverseDynamicsQP:
         specialise(id_assemble, self._rows.tasks, dynamics, self._rows.contacts, *self._buffers)
         if self._fast:
             self.chain.compiled = CompiledIDSolver(self.n, nv, self._C.shape[0], self._A.shape[0])
-            qp = QPData(self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub)
             specialise(id_solve, qp, nv, 100, self.chain.compiled.buffers)
 
     def _layout_inequalities(self) -> None:

@@ -37,12 +37,12 @@ from wbc.tasks.base import Task
 from wbc.tasks.posture import PostureTask
 
 
-#: controller attributes that make up one constraint layout (``KinematicController._build_layout``)
+#: controller attributes that make up one constraint layout (``KinematicController._update_layout``)
 LAYOUT_ATTRS = ("_constraints", "_box", "_feedback", "_box_sel", "_relaxable", "_contacts", "_contact_rows",
                  "_const_prefix", "_const_box", "_box_rows", "_eq_blocks", "_A", "_b", "_contact_blocks", "_in_blocks",
                  "_C", "_l", "_u", "_lb", "_ub", "_not_hard_task", "_H", "_g", "_eliminating_row", "_qp_pack",
                  "_contact_writes", "_other_eq_blocks", "_contact_factors", "_contact_factor_values", "_contact_starts",
-                 "_relaxable_blocks", "_contact_pair")
+                 "_relaxable_blocks", "_contact_pair", "_qp")
 
 
 def row_blocks(constraints) -> tuple[list, int]:
@@ -63,10 +63,12 @@ class VelocityQP:
     #: buffers and solver workspaces (docs/kinematic-controller.md, tick budget)
     LAYOUT_WORK = 4
 
-    def _build_layout(self) -> None:
-        """Row layout of the equality and inequality blocks and their buffers (redone when constraints change), kept
-        per constraint list (the same objects in the same order and row counts): a support switch back to an earlier
-        set of contacts reuses its layout, buffers and the intersection of its constant boxes."""
+    def _update_layout(self) -> None:
+        """Row layout of the equality and inequality blocks and their buffers (redone when ``_layout_ok`` is False),
+        kept per constraint list (the same objects in the same order and row counts): a support switch back to an
+        earlier set of contacts reuses its layout, buffers and the intersection of its constant boxes."""
+        if self._layout_ok:
+            return
         key = tuple((id(c), c.dim) for c in self.constraints)
         state = self.__dict__
         if self._layout_key is not None:  # keep the current layout (with what _intersect_boxes cached since)
@@ -111,8 +113,8 @@ class VelocityQP:
         self._eliminating_row = first[0] if first and free_flyer and not base_bounded else -1
         # the QP's buffers, packed with the compiled solver's workspace: every route reads them
         self._qp_pack = kinematic_pack(self.nv, n_eq, n_in, self._eliminating_row)
-        qp, self._box_rows, *_ = kinematic_views.py_func(*self._qp_pack)  # numpy views; _box_rows: (lb, ub)
-        self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub = qp
+        self._qp, self._box_rows, *_ = kinematic_views.py_func(*self._qp_pack)  # numpy views; _box_rows: (lb, ub)
+        self._H, self._g, self._A, self._b, self._C, self._l, self._u, self._lb, self._ub = self._qp
         # each contact's rows written in place (views of A, b), and its factor dt − 1/K ((1 − K dt) e = factor · b)
         self._contact_writes = [(c, self._A[r0:r1], self._b[r0:r1]) for c, r0, r1 in self._contact_blocks]
         # two contacts of the class itself (a biped's soles): their rows in one compiled call (write_pair)
@@ -128,9 +130,11 @@ class VelocityQP:
                                         for _ in range(r0, r1)], dtype=bool)  # equality rows kept by the fallback
         self._layout_ok = True
 
-    def _build_soft_layout(self) -> None:
+    def _update_soft_layout(self) -> None:
         """The soft tasks' stacked rows (:class:`SoftRows`), redone when ``tasks`` changes and kept per task list
         (the same task objects in the same order and sizes): a swing task that comes back reuses its layout."""
+        if self._soft_tasks == self.tasks:
+            return
         key = tuple((id(t), t.dim) for t in self.tasks)
         cached = self._soft_layouts.get(key)
         if cached is not None:  # (the same task objects: kept alive by it)
@@ -146,16 +150,14 @@ class VelocityQP:
         """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
         route solves. Returns :class:`~wbc.solvers.qp_data.QPData` (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)):
         views of the controller's buffers, overwritten at the next call."""
-        return QPData(*self._assemble(config, dt, True))
+        return self._assemble(config, dt, True)
 
-    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True):
+    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True) -> QPData:
         """:meth:`assemble` (the posture's q ⊖ q* and gain kept in ``_posture_diff``, ``_posture_gain``); with
         ``form_cost`` False, H and g are left to the compiled tick, with ``boxes`` False lb and ub too."""
-        if not self._layout_ok:
-            self._build_layout()
-        if self._soft_tasks != self.tasks:
-            self._build_soft_layout()
-        H, g = self._H, self._g
+        self._update_layout()
+        self._update_soft_layout()
+        H, g, A, b, C, l, u, lb, ub = self._qp
         soft = self._soft
         soft.gather(config)
         posture = soft.posture
@@ -178,7 +180,6 @@ class VelocityQP:
             for level in self._level_rows:
                 level.gather(config)
                 weighted_rows(level.J, level.e, level.rowp, level.wJ, level.wr)
-        A, b = self._A, self._b
         ctx = self._context
         ctx.config, ctx.dt = config, dt
         factors, values, inv = self._contact_factors, self._contact_factor_values, 1.0 / dt
@@ -196,12 +197,11 @@ class VelocityQP:
             c.write(ctx, A[r0:r1], b[r0:r1], None)
         if self._in_solve:  # (1 − K dt) e of each contact at this tick's configuration, from b = −K e, K = min(K, 1/dt)
             self._contact_expected = [b[r0:r1] * factors[i] for i, (c, r0, r1) in enumerate(self._contact_blocks)]
-        C, l, u = self._C, self._l, self._u
         for c, r0, r1 in self._in_blocks:
             c.write(ctx, C[r0:r1], l[r0:r1], u[r0:r1])
         if boxes:
             self._intersect_boxes(config, dt)
-        return H, g, A, b, C, l, u, self._lb, self._ub
+        return self._qp
 
     def _kernel_box(self, config: Configuration, dt: float) -> KernelBox:
         """The compiled tick's box argument for the current layout: its constant boxes and one JointPositionLimit

@@ -6,7 +6,6 @@ where a contact frame ends against where its row sent it (:func:`contact_drift`)
 
 from __future__ import annotations
 
-import time
 from collections import namedtuple
 
 import numba as nb
@@ -17,16 +16,13 @@ from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
 from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
 from wbc.solvers.linalg import carve, carve2, equality_residual, row_violation
+from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
 
-__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox", "KinematicQP",
-           "kinematic_pack", "load_kinematic_kernels", "kinematic_solve", "kinematic_tick_packed", "kinematic_views", "load_kinematic_parts", "NO_KERNEL_BOX",
-           "NONFINITE_RHS", "rotation_gap", "rows_pack", "task_rows", "TaskRows", "TickBuffers", "translation_gap",
-           "weighted_rows"]
-
-#: the kinematic QP min ½vᵀHv + gᵀv s.t. A v = b, l ≤ C v ≤ u, lb ≤ v ≤ ub as one (compiled) argument: H (n, n),
-#: g (n,), A (m, n), b (m,), C (p, n), l, u (p,), lb, ub (n,) float64 arrays
-KinematicQP = namedtuple("KinematicQP", "H g A b C l u lb ub")
+__all__ = ["all_finite", "command_within", "contact_drift", "contact_pair_drift", "form_qp", "KernelBox",
+           "kinematic_pack", "load_kinematic_kernels", "kinematic_solve", "kinematic_tick_packed", "kinematic_views",
+           "load_kinematic_parts", "NO_KERNEL_BOX", "NONFINITE_RHS", "rows_pack", "task_rows", "TaskRows",
+           "TickBuffers", "weighted_rows"]
 
 #: the stacked task rows of the cost (:func:`form_qp`): J (mt, nv), e (mt,), rowp (3, mt) float64 (gain K (1/s),
 #: weight w, feed-forward of each row), pw (kp,) float64 posture weights, prow (kp,) int64 their velocity indices and
@@ -189,7 +185,7 @@ def _views_size(n, nr, mr, p):
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(qp, er, ws):
     """Views of :func:`kinematic_solve`'s float workspace ``ws``: the reduced QP (a plain tuple in
-    :class:`KinematicQP`'s order), x, z, Tc, Eb, V, wb, mu, nu, eqres and the solver's workspace."""
+    :class:`~wbc.solvers.qp_data.QPData`'s order), x, z, Tc, Eb, V, wb, mu, nu, eqres and the solver's workspace."""
     n0 = 6 if er >= 0 else 0
     n, mr, p = qp[0].shape[0], qp[2].shape[0] - n0, qp[4].shape[0]
     nr = n - n0
@@ -248,17 +244,18 @@ def _reduce_cost(H, g, n0, nr, Tc, V, wb, Hr, gr):
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
-    """The exact optimum of the assembled kinematic QP (:class:`KinematicQP`, read, never written) with the floating
-    base eliminated: the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, E_b invertible) give
+    """The exact optimum of the assembled kinematic QP (``qp``, read, never written) with the floating base
+    eliminated: the 6 equality rows E = A[er:er + 6] (a contact's LOCAL Jacobian, E_b invertible) give
     v_b = c − T v_j (T = E_b⁻¹E_j, c = E_b⁻¹b_E), and the QP is solved exactly in the nv − 6 joint velocities with
     the other rows, H, g (:func:`_reduce_cost`), A and C substituted (variable elimination: Nocedal & Wright,
     *Numerical Optimization*, 2nd ed., §15.3, eq. 15.14). The base must be unbounded (else ``NOT_REDUCIBLE``). The
-    reduced QP goes to :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; the residuals of the original rows are then checked against
-    ``tolerance``.
+    reduced QP goes to :func:`~wbc.solvers.active_set.solve_qp_into`, warm-started from ``state``/``rstate``; the
+    residuals of the original rows are then checked against ``tolerance``.
 
     Args:
-        qp: a :class:`KinematicQP`, H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv), b (neq,),
-            C (p, nv), l/u (p,), lb/ub (nv,): the assembled QP (a row of C with l = −inf and u = inf is unused).
+        qp: a :class:`~wbc.solvers.qp_data.QPData`, H (nv, nv) symmetric positive definite, g (nv,), A (neq, nv),
+            b (neq,), C (p, nv), l/u (p,), lb/ub (nv,): the assembled QP (a row of C with l = −inf and u = inf is
+            unused).
         er: first row of the eliminating block, or −1 (no elimination). dt (s): the workspace receives v·dt.
         tolerance: largest residual accepted. max_iter: working-set iterations.
         state (nr,) int8, rstate (p,) int8: working sets (warm start, in/out). ws, iws: workspaces from
@@ -311,8 +308,8 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
     """v from the reduced solution x (joint velocities; the base's v_b = c − T v_j when n0 = 6), then the residuals
-    of the original rows of ``qp`` (:class:`KinematicQP`) A v = b, l ≤ C v ≤ u: False when one exceeds
-    ``tolerance``, else ws[:nv] = v·dt."""
+    of the original rows of ``qp`` (:class:`~wbc.solvers.qp_data.QPData`) A v = b, l ≤ C v ≤ u: False when one
+    exceeds ``tolerance``, else ws[:nv] = v·dt."""
     A, b, C = qp.A, qp.b, qp.C
     n = v.shape[0]
     nr = n - n0
@@ -355,8 +352,9 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
 
 @nb.njit(cache=True, nogil=True)
 def kinematic_views(fb, ib):
-    """Views of the arrays of :func:`kinematic_pack`: (the QP (:class:`KinematicQP`), box (2, nv) = its lb and ub
-    as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace iws, er).
+    """Views of the arrays of :func:`kinematic_pack`: (the QP (:class:`~wbc.solvers.qp_data.QPData`), box (2, nv) =
+    its lb and ub as the rows of one array, the float workspace ws (ws[:nv] = v·dt after a solve), the int workspace
+    iws, er).
     From Python, ``kinematic_views.py_func`` gives them as numpy views (no numba allocation)."""
     nv, neq, p = ib[0], ib[1], ib[2]
     M, o = carve2(fb, 0, nv + neq + p + 2, nv)  # H, A, C, lb, ub: one view (each reshape costs a call)
@@ -366,7 +364,7 @@ def kinematic_views(fb, ib):
     u, o = carve(fb, o, p)
     e = nv + neq + p
     box = M[e:]
-    return KinematicQP(M[:nv], g, M[nv:nv + neq], b, M[nv + neq:e], l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
+    return QPData(M[:nv], g, M[nv:nv + neq], b, M[nv + neq:e], l, u, box[0], box[1]), box, fb[o:], ib[4:], ib[3]
 
 
 def rows_pack(mt: int, nv: int, prow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -512,10 +510,9 @@ def command_within(v, lb, ub, C, l, u, tolerance):
 
 
 @once_per_process
-def load_kinematic_parts() -> float:
+def load_kinematic_parts() -> None:
     """Compile (or load), once per process, the kinematic kernels that link no solver kernel (``wbc compile`` runs it
-    beside the solvers': :data:`wbc.cli.kernels.PARTS`); returns the seconds taken (later calls: None)."""
-    t0 = time.perf_counter()
+    beside the solvers': :data:`wbc.cli.kernels.PARTS`)."""
     fb, ib = kinematic_pack(7, 6, 0, 0)
     qp = kinematic_views.py_func(fb, ib)[0]
     form_qp(*rows_pack(1, 7, np.zeros(0, np.int64)), np.zeros(7), 0.0, 1e-6, qp.H, qp.g)
@@ -531,14 +528,11 @@ def load_kinematic_parts() -> float:
     command_within(np.zeros(7), qp.lb, qp.ub, np.zeros((1, 7)), -np.ones(1), np.ones(1), 1e-6)
     translation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
     rotation_gap(np.zeros(6), 1.0, np.zeros(6), 1.0)
-    return time.perf_counter() - t0
 
 
 @once_per_process
-def load_kinematic_kernels() -> float:
-    """:func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed`, once per process; returns
-    the seconds taken (later calls: None)."""
-    t0 = time.perf_counter()
+def load_kinematic_kernels() -> None:
+    """:func:`load_kinematic_parts`, then the compiled tick :func:`kinematic_tick_packed`, once per process."""
     load_kinematic_parts()
     # the kinematic controller's compiled tick (a 7-velocity QP whose base is eliminated through 6 rows)
     fb, ib = kinematic_pack(7, 6, 0, 0)
@@ -551,4 +545,3 @@ def load_kinematic_kernels() -> float:
     rows.J[0, 6], rows.rowp[:] = 1.0, 1.0
     kinematic_tick_packed(TickBuffers(fb, ib, sfb, sib, np.zeros(1, np.int8)), np.zeros(7), 0.0, 1e-6, np.empty(7),
                           0.002, 1e-6, 10, np.zeros(0), NO_KERNEL_BOX)
-    return time.perf_counter() - t0
