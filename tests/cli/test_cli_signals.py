@@ -18,6 +18,16 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from issue62_inputs import catches  # noqa: E402  (reads SigCgt of /proc/PID/status)
 
 
+@pytest.fixture(autouse=True)
+def _forget_the_ctrl_c():
+    """The in-process tests below leave the run's Ctrl-C flag set (``wbc.cli.output.sigint_received``); a later test
+    of the same pytest worker that compiles kernels (``tests/cli/test_kernels.py``) would then stop on it."""
+    yield
+    from wbc.cli.output import clear_sigint
+
+    clear_sigint()
+
+
 def _signalled(args: list[str], sig: int, cwd: Path, settle: float = 2.0) -> subprocess.CompletedProcess:
     """Run `wbc args`, send ``sig`` ``settle`` s after its SIGTERM handler is installed (the command runs), return
     the finished process. A ``ros2`` command runs on a DDS domain of its own (loopback, wbc's default)."""

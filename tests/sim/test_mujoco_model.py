@@ -288,17 +288,22 @@ def test_damping_friction_kept_and_srdf_self_collision():
     assert len(build_mujoco_model(robot, self_collision="all").self_contacts()) > 0
 
 
+def _add_crate(spec):
+    """A 10 kg box (0.2 × 0.1 × 0.05 m) on the floor at x = 3 m, colliding with the ground as a robot geom."""
+    b = spec.worldbody.add_body(name="crate", pos=[3.0, 0.0, 0.0249], mass=10.0,
+                                inertia=[0.0104, 0.0354, 0.0417], ipos=[0.0, 0.0, 0.0])
+    b.add_freejoint(name="crate_joint")
+    b.add_geom(name="crate_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.05, 0.025],
+               contype=ROBOT_BIT, conaffinity=ENV_BIT)
+
+
 def _crate_displacement(cone, impratio, force_ratio, robot, friction_timeconst=0.0):
-    """x displacement (m) in 1 s of a 10 kg box (0.2 × 0.1 × 0.05 m) resting on the floor of the robot's plant,
-    pushed horizontally at its centre by ``force_ratio`` × its weight; ``friction_timeconst`` > 0: its floor contact
-    made a foot contact by :func:`stiff_foot_friction`."""
+    """x displacement (m) in 1 s of the box of :func:`_add_crate` resting on the floor of the robot's plant, pushed
+    horizontally at its centre by ``force_ratio`` × its weight; ``friction_timeconst`` > 0: its floor contact made a
+    foot contact by :func:`stiff_foot_friction`."""
 
     def add_crate(spec):
-        b = spec.worldbody.add_body(name="crate", pos=[3.0, 0.0, 0.0249], mass=10.0,
-                                    inertia=[0.0104, 0.0354, 0.0417], ipos=[0.0, 0.0, 0.0])
-        b.add_freejoint(name="crate_joint")
-        b.add_geom(name="crate_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.05, 0.025],
-                   contype=ROBOT_BIT, conaffinity=ENV_BIT)
+        _add_crate(spec)
         if friction_timeconst > 0.0:
             root = spec.worldbody.first_body().name  # the robot's root link, built before the crate
             assert stiff_foot_friction(spec, root, {"crate": {"crate"}}, friction_timeconst) == 1
@@ -410,3 +415,42 @@ def test_stiff_foot_friction_keeps_the_friction_coefficient():
     robot = wbc.load_robot("g1")
     assert 0.0 <= _crate_displacement(None, None, 0.3, robot, 0.004) < 5e-5
     assert _crate_displacement(None, None, 1.2, robot, 0.004) == pytest.approx(0.5 * 0.2 * 9.81, rel=0.03)
+
+
+def _resting_depth(robot, ground_timeconst):
+    """Mean depth (m) of the 4 floor contacts of the box of :func:`_add_crate` after 1 s at rest."""
+    sim = build_mujoco_model(robot, customize=_add_crate, ground_timeconst=ground_timeconst)
+    m, d = sim.model, sim.data
+    for _ in range(500):
+        mujoco.mj_step(m, d)
+    crate = m.geom("crate_geom").id
+    depth = [-d.contact.dist[i] for i in range(d.ncon) if crate in (d.contact.geom1[i], d.contact.geom2[i])]
+    assert len(depth) == 4
+    return float(np.mean(depth))
+
+
+def test_ground_time_constant_is_the_stiffness_of_every_ground_contact():
+    # MuJoCo's soft contact (documentation, Modeling, "Solver parameters"): a row of depth r is pulled back at
+    # a_ref = −k r with k = 1 / (d_max² τ² ζ²) (solref (τ, ζ = 1), d_max = solimp[1] = 0.95) and the impedance
+    # d(r) of solimp (0.9, 0.95, 0.001, 0.5, 2: d = 0.9 + 0.05 · 2 (r / 1 mm)² below 0.5 mm); at rest the row's
+    # force f meets R f = −a_ref with R = (1 − d) / d · A (A the row's inverse inertia), so for one body resting on
+    # the same contacts r k d / (1 − d) = A f is the same whatever τ: a stiffer ground sinks by k's ratio, ~(τ ratio)².
+    robot = wbc.load_robot("g1")
+
+    def invariant(tau, r):
+        d = 0.9 + 0.05 * 2.0 * (r / 1e-3) ** 2
+        return r * d / (1.0 - d) / (0.95 * tau) ** 2
+
+    soft, stiff = _resting_depth(robot, None), _resting_depth(robot, 0.004)
+    assert stiff < soft / 20.0
+    assert invariant(0.004, stiff) == pytest.approx(invariant(0.02, soft), rel=0.01)
+    # every ground geom (floor, terrain boxes, heightfield) and so the foot pairs that copy them
+    sim = build_mujoco_model(robot, ground_timeconst=0.01, terrain="rough:0.02:3")
+    m = sim.model
+    assert len(sim.ground_geoms) == 2
+    np.testing.assert_array_equal(m.geom_solref[sim.ground_geoms], [[0.01, 1.0]] * 2)
+    np.testing.assert_array_equal(m.pair_solref, [[0.01, 1.0]] * m.npair)
+    assert m.npair == 4
+    for bad in (0.003, float("nan"), -1.0):
+        with pytest.raises(InvalidInputError, match="ground_timeconst"):
+            build_mujoco_model(robot, ground_timeconst=bad)

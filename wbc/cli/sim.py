@@ -199,6 +199,9 @@ def register(subparsers, add_outputs) -> None:
                    help="plant: time constant (s) of the foot contacts' friction rows (default 2 timesteps, see "
                         "wbc.sim.mujoco_model; 0: the contact's own 0.02 s, MuJoCo's default, lets a stance sole "
                         "slide under a moving leg)")
+    w.add_argument("--ground-timeconst", type=finite(0.0, lo_open=True), default=None,
+                   help="plant: time constant (s) of the ground contacts' normal rows, a stiffer ground when "
+                        "smaller (default: MuJoCo's 0.02; at least 2 timesteps, 0.004)")
     w.add_argument("--cone", choices=("elliptic", "pyramidal"), default="elliptic",
                    help="plant: MuJoCo friction cone (default elliptic; pyramidal is MuJoCo's default)")
     w.add_argument("--q-noise", type=finite(0.0), default=0.0, help="walk: Gaussian noise std on measured joint positions, deg")
@@ -341,6 +344,7 @@ def cmd_sim(args) -> int:
                              **({} if args.impratio is None else {"impratio": args.impratio}),
                              **({} if args.friction_timeconst is None
                                 else {"friction_timeconst": args.friction_timeconst}),
+                             **({} if args.ground_timeconst is None else {"ground_timeconst": args.ground_timeconst}),
                              **({} if getattr(args, "terrain", None) is None else {"terrain": args.terrain}))
     apply_actuators(sim, drives)
     compensation = {}
@@ -453,6 +457,7 @@ def cmd_sim(args) -> int:
         else "none")
     summary["mujoco_impratio"] = float(sim.model.opt.impratio)
     summary["mujoco_cone"] = args.cone
+    summary["mujoco_ground_timeconst_s"] = float(sim.model.geom_solref[sim.floor_geom, 0])
     summary["mujoco_foot_friction_timeconst_s"] = float(sim.model.pair_solreffriction[0, 0]) if sim.model.npair else 0.0
     if args.scenario == "walk" and args.controller == "id":
         walk_opts = walk_options_for(robot, args.solver, args.sole_margin)

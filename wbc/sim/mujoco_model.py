@@ -60,6 +60,10 @@ merged into the world and Talos loses 13.5 kg), then edits the spec:
   velocity is removed within about a step). Their normal rows keep the contact's solref and solimp, the friction
   coefficient is unchanged (a sole pushed past μ·f_n still slides), and contacts of other robot bodies stay
   dynamic. Its effect on a squatting G1: ``tests/sim/test_mujoco_model.py``;
+* ground stiffness (``ground_timeconst``, default None: MuJoCo's ``solref`` 0.02 s on every ground geom): the
+  normal rows of the ground contacts get ``solref = (ground_timeconst, 1)``, a stiffer ground when smaller (a
+  10 kg box rests 0.108 mm deep at 0.02 s, 0.0044 mm at 0.004 s), to test a controller on the grounds it may meet
+  (blind rough ground at three stiffnesses: ``benchmarks/records/77-*.md``);
 * the foot boxes are in geom group 3 (hidden by default in viewers); URDF collision geoms stay in group 0.
   Joint position limits are enforced by MuJoCo, velocity limits are not.
 
@@ -124,6 +128,7 @@ def build_mujoco_model(
     cone: str = "elliptic",
     impratio: float = 10.0,
     friction_timeconst: float | None = None,
+    ground_timeconst: float | None = None,
     customize: Callable[[mujoco.MjSpec], None] | None = None,
     sensors: bool = True,
     plant: str = "ideal",
@@ -147,6 +152,10 @@ def build_mujoco_model(
             explicit contact pairs, :func:`stiff_foot_friction`); None: ``2 * timestep``, the smallest MuJoCo
             accepts; 0: none (the friction rows share the contact's ``solref``, MuJoCo's default). Otherwise it
             must be at least ``2 * timestep``.
+        ground_timeconst: time constant (s) of the normal rows of every contact with the ground (``solref``
+            ``(ground_timeconst, 1)`` of the floor, the terrain boxes and the heightfield, so of the foot pairs too);
+            None: MuJoCo's default 0.02 s. A smaller value is a stiffer ground (a sole sinks less under the same
+            load); at least ``2 * timestep``.
         customize: called with the ``MjSpec`` just before compilation (add cameras, lights, obstacles...).
         sensors: add the joint encoders, the pelvis IMU and the ankle F/T sensors of :mod:`wbc.sim.sensors`
             (MuJoCo sensors; they do not change the physics).
@@ -187,6 +196,10 @@ def build_mujoco_model(
                                                  or friction_timeconst >= 2.0 * timestep * (1.0 - 1e-12))):
         raise InvalidInputError(f"friction_timeconst must be 0 or >= 2 * timestep = {2.0 * timestep} s, got "
                                 f"{friction_timeconst!r}")
+    if ground_timeconst is not None and not (np.isfinite(ground_timeconst)
+                                             and ground_timeconst >= 2.0 * timestep * (1.0 - 1e-12)):
+        raise InvalidInputError(f"ground_timeconst must be None or >= 2 * timestep = {2.0 * timestep} s, got "
+                                f"{ground_timeconst!r}")
     if not (floor_friction > 0 and foot_box_thickness > 0):
         raise InvalidInputError("floor_friction and foot_box_thickness must be positive")
     if plant not in PLANTS:
@@ -277,6 +290,9 @@ def build_mujoco_model(
 
         terrain = parse_terrain(terrain)
         ground_names += add_terrain(spec, terrain, floor_friction)
+    if ground_timeconst is not None:
+        for name in ground_names:
+            spec.geom(name).solref = [float(ground_timeconst), 1.0]
     if self_collision == "srdf":
         bodies = {b.name for b in spec.bodies}
         for a, b in _srdf_disabled_pairs(robot.srdf_path):
