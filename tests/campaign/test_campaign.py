@@ -574,6 +574,41 @@ def test_the_first_swing_foot_is_drawn_per_trial_without_moving_the_other_draws(
         default_spec("push", scenario={"first_side": "up"})
 
 
+def test_the_ground_time_constant_factor_reaches_the_plant(monkeypatch):
+    """factors.ground_timeconst (a robustness factor: the ground's stiffness) is the solref time constant of the
+    trial's MuJoCo ground contacts; absent, MuJoCo's 0.02 s; below two timesteps the spec is refused."""
+    import wbc.sim.mujoco_model
+    import wbc.sim.walk
+    from wbc.campaign.trials import walk_trial
+
+    built = []
+    original = wbc.sim.mujoco_model.build_mujoco_model
+
+    class Stop(Exception):
+        pass
+
+    def recorded(*args, **kwargs):
+        sim = original(*args, **kwargs)
+        built.append(float(sim.model.geom_solref[sim.floor_geom, 0]))
+        return sim
+
+    def fake_walk(*args, **kwargs):
+        raise Stop
+
+    monkeypatch.setattr(wbc.sim.mujoco_model, "build_mujoco_model", recorded)
+    monkeypatch.setattr(wbc.sim.walk, "WalkScenario", fake_walk)
+    for factors, expected in (({}, 0.02), ({"ground_timeconst": 0.004}, 0.004), ({"ground_timeconst": [0.01, 0.05]},
+                                                                                    None)):
+        spec = default_spec("robustness", trials=1, seed=3, factors=factors)
+        params = trial_params(spec, 0)
+        with pytest.raises(Stop):
+            walk_trial(spec, params)
+        assert built[-1] == (params["ground_timeconst"] if expected is None else expected)
+        assert expected is not None or 0.01 <= built[-1] <= 0.05
+    with pytest.raises(InvalidInputError, match="ground_timeconst"):
+        default_spec("robustness", trials=1, factors={"ground_timeconst": 0.002})
+
+
 def test_contact_events_reach_the_walk(monkeypatch):
     """scenario.contact_events (default off; refused without the estimated state, test_bad_specs_are_refused_by_name)
     is handed to the trial's WalkScenario (wbc sim walk --contact-events)."""

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbc.campaign.spec import FACTOR_KEYS, SWEEP_KEYS
 from wbc.campaign.store import finished_mask
 from wbc.exceptions import InvalidInputError
 
@@ -29,6 +30,9 @@ __all__ = ["wilson_interval", "summarize_campaign", "factor_table", "make_plots"
 SWEEP_METRIC = "max_dcm_error_m"
 #: Default tolerance of the best region, relative to the best value (:func:`best_region`).
 SWEEP_TOLERANCE = 0.05
+#: The columns that are trial parameters, not measured metrics: the factors (push, plant ≠ model) and the sweepable
+#: options of :mod:`wbc.campaign.spec`, in that order (the report's "by …" tables).
+TRIAL_PARAMS = (*FACTOR_KEYS, *SWEEP_KEYS)
 
 
 def wilson_interval(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
@@ -137,9 +141,7 @@ def format_report(table, factors=None) -> str:
         lines.append("what ended the failed trials: " + ", ".join(f"{k} ×{v}" for k, v in
                                                                  sorted(s["fall_reasons"].items())))
     if factors is None:
-        factors = [f for f in ("force", "direction_deg", "phase", "mass_error", "friction", "armature", "delay",
-                               "q_noise_deg", "v_noise", "payload", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
-                               "adjust_dead_band", "impact_window") if f in table.column_names]
+        factors = [f for f in TRIAL_PARAMS if f in table.column_names]
     for f in factors:
         rows = factor_table(table, f)
         if len({(r["lo"], r["hi"]) for r in rows}) <= 1:
@@ -554,9 +556,7 @@ def _edges(u: np.ndarray) -> np.ndarray:
 
 def varies_param(name: str) -> bool:
     """Columns that are trial parameters, not measured metrics."""
-    return name in {"force", "direction_deg", "phase", "push_duration", "mass_error", "payload", "friction",
-                    "armature", "delay", "q_noise_deg", "v_noise", "k_xi", "k_i", "k_z", "cop_margin", "cmp_offset",
-                    "adjust_dead_band", "impact_window"}
+    return name in TRIAL_PARAMS
 
 
 def _numeric(v) -> bool:

@@ -71,6 +71,7 @@ FACTOR_KEYS = {
     "mass_error": ("% (uniform ± per link)", (0.0, 50.0)), "payload": ("kg", (0.0, 50.0)),
     "friction": ("N·m", (0.0, 20.0)), "armature": ("kg·m²", (0.0, 5.0)), "delay": ("ticks", (0.0, 50.0)),
     "q_noise_deg": ("deg", (0.0, 5.0)), "v_noise": ("rad/s", (0.0, 1.0)),
+    "ground_timeconst": ("s, the ground contacts' normal time constant (smaller: stiffer)", (0.004, 0.1)),
 }
 
 #: Sweepable options: DCM stabilizer gains (``wbc.gait.stabilizer.DcmStabilizer``) and walk options.

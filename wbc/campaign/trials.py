@@ -87,7 +87,9 @@ def walk_trial(spec, params: dict) -> dict:
 
     The walk swings ``first_side`` first (``left`` when absent). The push (when ``force`` > 0) starts at ``t_init + phase · (t_walk − push_duration)`` s, ``t_walk`` the walking
     steps' time ``(steps − 1) · step_duration``, in direction ``direction_deg`` (world, 0 = +x); plant errors
-    (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m²) are applied to the MuJoCo model and
+    (``mass_error`` %, ``payload`` kg, ``friction`` N·m, ``armature`` kg·m², ``ground_timeconst`` s: the ground's
+    stiffness, :func:`wbc.sim.mujoco_model.build_mujoco_model`; MuJoCo's 0.02 s when absent) are applied to the
+    MuJoCo model and
     sensor errors (``q_noise_deg`` deg, ``v_noise`` rad/s, ``delay`` ticks) to the controller
     (:mod:`wbc.sim.perturb`), seeded by the trial index. The controller reads ``scenario.state`` (``estimated``, as
     ``wbc sim walk`` by default: :class:`wbc.sim.estimated_state.EstimatedState`, its sensor noise seeded by the trial
@@ -108,7 +110,7 @@ def walk_trial(spec, params: dict) -> dict:
 
     sc = spec.scenario
     robot = cached_robot(sc["robot"])
-    sim = build_mujoco_model(robot)
+    sim = build_mujoco_model(robot, ground_timeconst=params.get("ground_timeconst"))
     drives = actuator_model(robot, sc["plant"])  # the plant's drives, as wbc sim walk (--plant)
     apply_actuators(sim, drives)
     force = float(params.get("force", 0.0))
