@@ -451,6 +451,6 @@ def test_ground_time_constant_is_the_stiffness_of_every_ground_contact():
     np.testing.assert_array_equal(m.geom_solref[sim.ground_geoms], [[0.01, 1.0]] * 2)
     np.testing.assert_array_equal(m.pair_solref, [[0.01, 1.0]] * m.npair)
     assert m.npair == 4
-    for bad in (0.003, float("nan"), -1.0):
+    for bad in (0.003, float("nan"), -1.0, "0.01", True, [0.01]):
         with pytest.raises(InvalidInputError, match="ground_timeconst"):
             build_mujoco_model(robot, ground_timeconst=bad)

@@ -196,9 +196,10 @@ def build_mujoco_model(
                                                  or friction_timeconst >= 2.0 * timestep * (1.0 - 1e-12))):
         raise InvalidInputError(f"friction_timeconst must be 0 or >= 2 * timestep = {2.0 * timestep} s, got "
                                 f"{friction_timeconst!r}")
-    if ground_timeconst is not None and not (np.isfinite(ground_timeconst)
-                                             and ground_timeconst >= 2.0 * timestep * (1.0 - 1e-12)):
-        raise InvalidInputError(f"ground_timeconst must be None or >= 2 * timestep = {2.0 * timestep} s, got "
+    if ground_timeconst is not None and not (
+            isinstance(ground_timeconst, (int, float, np.floating)) and not isinstance(ground_timeconst, bool)
+            and np.isfinite(ground_timeconst) and ground_timeconst >= 2.0 * timestep * (1.0 - 1e-12)):
+        raise InvalidInputError(f"ground_timeconst must be None or a number >= 2 * timestep = {2.0 * timestep} s, got "
                                 f"{ground_timeconst!r}")
     if not (floor_friction > 0 and foot_box_thickness > 0):
         raise InvalidInputError("floor_friction and foot_box_thickness must be positive")
