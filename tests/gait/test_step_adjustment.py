@@ -145,6 +145,42 @@ def test_replan_with_moved_footsteps():
         p.replan(k, p.com[k], p.com_vel[k] + [0.0, -1.0, 0.0], new)
 
 
+@pytest.mark.parametrize("ramp, peak", [(None, 1.875), (0.3, 1 / 0.7), (0.5, 2.0)])
+def test_replan_swing_ramp_sets_the_top_speed_of_the_moved_swing(ramp, peak):
+    """The swing in progress follows a moved landing by d over its n remaining samples of dt: its velocity changes by
+    b'(s) d / (n dt), whose peak is 1.875 |d| / (n dt) for the minimum-jerk blend and |d| / ((1 − r) n dt) for the
+    ramped trapezoid (closed forms of wbc.profiles' docstring); the poses' central differences are the velocities."""
+    p = _plan()
+    ph = next(x for x in p.phases if x.step == 1)
+    n = 2 * (ph.count // 4)  # (even: the blend's sample s = ½ is the minimum-jerk peak)
+    k = ph.end - n
+    d = np.array([0.02, 0.15])
+    new = [Footstep(f.side, f.x + d[0], f.y + d[1], f.yaw) for f in p.footsteps[1:]]
+    q = p.replan(k, p.com[k], p.com_vel[k], new, check_start=False, swing_ramp=ramp)
+    side = p.footsteps[1].side
+    P, V = (q.left_sole, q.left_sole_vel) if side == "left" else (q.right_sole, q.right_sole_vel)
+    P0, V0 = (p.left_sole, p.left_sole_vel) if side == "left" else (p.right_sole, p.right_sole_vel)
+    added = np.linalg.norm(V[:n, :2] - V0[k:k + n, :2], axis=1)
+    assert added.max() == pytest.approx(peak * np.linalg.norm(d) / (n * q.dt), rel=1e-9)
+    assert np.abs(P[0] - P0[k]).max() == 0.0 and np.abs(V[0] - V0[k]).max() == 0.0
+    assert P[n][:2, 3] == pytest.approx([new[0].x, new[0].y], abs=1e-12)
+    fd = (P[2:n, :2, 3] - P[:n - 2, :2, 3]) / (2 * q.dt)
+    assert np.abs(fd - V[1:n - 1, :2]).max() < 2e-3
+    # the next swing (the other foot, from its unmoved rest to a landing moved by d) keeps the minimum-jerk blend
+    later = next(x for x in p.phases if x.step == 2)
+    m = later.count
+    V2, V20 = (q.left_sole_vel, p.left_sole_vel) if p.footsteps[2].side == "left" else (q.right_sole_vel,
+                                                                                         p.right_sole_vel)
+    s = np.arange(m) / m
+    mj = 30 * s**2 - 60 * s**3 + 30 * s**4  # b'(s) of the minimum-jerk blend (Flash & Hogan 1985)
+    want = np.outer(mj / (m * q.dt), d)
+    assert np.abs(V2[later.first - k:later.first - k + m, :2] - V20[later.first:later.first + m, :2] - want).max() \
+        < 1e-12
+    for bad in (0.0, 0.6, True, "0.3", float("nan")):
+        with pytest.raises(GaitError, match="swing_ramp"):
+            p.replan(k, p.com[k], p.com_vel[k], new, check_start=False, swing_ramp=bad)
+
+
 def test_side_step_footsteps():
     w, d = 0.2, 0.05
     steps = plan_footsteps((0.0, w / 2, 0.0), (0.0, -w / 2, 0.0), 9, 0.0, w, 0.0, "left", d)

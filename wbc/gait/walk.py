@@ -32,7 +32,7 @@ from wbc.gait.schedule import (
 )
 from wbc.geometry import check_vector, signed_distance, signed_distance_point, support_corners
 from wbc.gait.swing import sample_feet
-from wbc.profiles import min_jerk
+from wbc.profiles import min_jerk, ramped_trapezoid
 
 __all__ = ["WalkPlan", "plan_walk"]
 
@@ -135,7 +135,7 @@ class WalkPlan:
 
     def replan(self, k: int, com: np.ndarray, com_vel: np.ndarray,
                footsteps: tuple[Footstep, ...] | list[Footstep] | None = None, *,
-               check_start: bool = True, skip: int = 0) -> WalkPlan:
+               check_start: bool = True, skip: int = 0, swing_ramp: float | None = None) -> WalkPlan:
         """Re-plan the CoM from a measured state at sample ``k``, keeping the remaining footsteps and timing.
 
         The new plan's sample 0 is this plan's sample ``k`` (time re-origined at 0; ``t_offset`` grows by
@@ -156,7 +156,8 @@ class WalkPlan:
                 shifted: a foot at rest by the shift of the footstep it stands on, a swing by
                 ``d_0 + (d_1 − d_0) b(s)`` with ``d_0``/``d_1`` the shifts of its start/landing footsteps and
                 ``b`` the minimum-jerk blend of :mod:`wbc.gait.swing` over the swing (for the swing in progress at
-                ``k``: over its remaining samples, so position, velocity and acceleration stay continuous).
+                ``k``: over its remaining samples, so position, velocity and acceleration stay continuous; with
+                ``swing_ramp``, that blend is the ramped trapezoid of :mod:`wbc.profiles` instead).
             check_start: raise when the solved ZMP start point is outside the current support polygon (default);
                 ``False`` returns the plan anyway (a stabilizer then saturates the CoP at the polygon edge).
             skip: step timing adjustment (Khadiv et al. 2016): end the single support in progress at ``k`` this
@@ -166,6 +167,10 @@ class WalkPlan:
                 and the plan is ``skip`` samples shorter. A negative ``skip`` lengthens the single support the same
                 way (the swing stretched, the stance foot held, everything after it later; Khadiv et al. 2020's
                 step time ``T`` in ``[T_min, T_max]``).
+            swing_ramp: None (default): the swing in progress moves by the minimum-jerk blend, whose peak velocity
+                is 1.875 times its average; a fraction r, 0 < r ≤ 0.5: by :func:`wbc.profiles.ramped_trapezoid`
+                (peak 1/(1 − r) times the average): a late move of the landing then asks the swing leg a lower top
+                speed (:attr:`wbc.sim.walk_steps.WalkSteps.swing_ramp`).
 
         Raises:
             GaitError: bad ``k``, shapes or non-finite values; bad ``footsteps`` (count, side, yaw) or ``k`` in
@@ -194,6 +199,9 @@ class WalkPlan:
         steps = self.footsteps[n_done:]
         feet = (self.left_sole[k:], self.right_sole[k:], self.left_sole_vel[k:], self.right_sole_vel[k:])
         support = self.support[k:]
+        if swing_ramp is not None and (isinstance(swing_ramp, bool) or not isinstance(swing_ramp, (int, float))
+                                       or not 0.0 < swing_ramp <= 0.5):
+            raise GaitError(f"swing_ramp must be None or a number in (0, 0.5]; got {swing_ramp!r}")
         skip = int(skip)
         if skip:
             if phases[0].support == DOUBLE_SUPPORT or not (-MAX_STRETCH <= skip <= phases[0].count - 10) \
@@ -210,7 +218,7 @@ class WalkPlan:
             start = pts.start.astype(float).copy()
             start[0] = np.nan
             new_seg = ZmpSegments(first, count, start, pts.end.astype(float), new_seg.phase)
-            feet = _shift_feet(feet, phases, steps, new_steps)
+            feet = _shift_feet(feet, phases, steps, new_steps, swing_ramp)
             steps = new_steps
         if skip:
             n0 = phases[0].count
@@ -307,9 +315,11 @@ def _check_new_footsteps(new, old: tuple[Footstep, ...]) -> tuple[Footstep, ...]
     return tuple(out)
 
 
-def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple[Footstep, ...]):
+def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple[Footstep, ...],
+                ramp: float | None = None):
     """Foot trajectories (left, right poses (N, 4, 4), velocities (N, 6)) shifted for moved footsteps (see
-    :meth:`WalkPlan.replan`): rest by the shift of the footstep stood on, swings by ``d0 + (d1 − d0) b(s)``."""
+    :meth:`WalkPlan.replan`): rest by the shift of the footstep stood on, swings by ``d0 + (d1 − d0) b(s)``, ``b``
+    the minimum-jerk blend, or for the swing in progress (``phases[0]``) with a ``ramp``, the ramped trapezoid."""
     poses = [feet[0].copy(), feet[1].copy()]
     vels = [feet[2].copy(), feet[3].copy()]
     dt = phases[0].dt
@@ -322,7 +332,7 @@ def _shift_feet(feet, phases: list[Phase], old: tuple[Footstep, ...], new: tuple
         d1 = np.array([new[ph.step].x - old[ph.step].x, new[ph.step].y - old[ph.step].y])
         n = ph.count
         s = np.arange(n) / n
-        b, db, _ = min_jerk(s)
+        b, db, _ = ramped_trapezoid(s, ramp) if ramp is not None and ph is phases[0] else min_jerk(s)
         # Samples from this swing on already carry d0 (added with the previous swing's landing).
         poses[f][ph.first:ph.first + n, :2, 3] += np.outer(b, d1 - d0)
         vels[f][ph.first:ph.first + n, :2] += np.outer(db / (n * dt), d1 - d0)

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbc.constraints.impact import ImpactSpeedBounds, ImpactSpeedExcess
-from wbc.exceptions import GaitError
+from wbc.exceptions import GaitError, InvalidInputError
 from wbc.formulations.reference import AccelerationReference
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
@@ -19,7 +19,12 @@ from wbc.gait.step_adjustment import StretchLimits
 from wbc.geometry import convex_hull, polygon_margin, projected_sole_corners
 from wbc.sim.scenarios import timed_push
 
-__all__ = ["WalkSteps"]
+__all__ = ["WalkSteps", "SWING_RAMP"]
+
+#: r of :attr:`WalkSteps.swing_ramp`: the velocity of a re-planned swing in progress ramps up and down over 0.3 of its
+#: rest (:func:`wbc.profiles.ramped_trapezoid`; peak 1.43 times the average, against the minimum-jerk blend's 1.875).
+#: Chosen on a screen of push campaign 9417 (benchmarks/records/79): 0.3 against 0.4 and the minimum-jerk blend.
+SWING_RAMP = 0.3
 
 
 class WalkSteps:
@@ -27,6 +32,28 @@ class WalkSteps:
     switcher, the step adjuster)."""
 
     _pre_stretch = None  # the plan before the last stretch, set in _adjust_step (_swing_landed)
+    _swing_ramp: float | None = SWING_RAMP
+
+    @property
+    def swing_ramp(self) -> float | None:
+        """How the swing in progress follows a moved landing (:meth:`wbc.gait.WalkPlan.replan`): a fraction r,
+        0 < r ≤ 0.5, of its rest over which its horizontal velocity ramps up and down (the ramped trapezoid of
+        :mod:`wbc.profiles`: top speed 1/(1 − r) times the average), default :data:`SWING_RAMP`; None: the
+        minimum-jerk blend (top speed 1.875 times the average). A late move of a landing asks the swing leg's joints
+        for more speed than they have with the minimum-jerk blend: the sole then lags its reference, and lands late in
+        its descent still travelling along the floor (benchmarks/records/79).
+
+        Raises:
+            InvalidInputError: on assignment, a value that is not None or a number in (0, 0.5].
+        """
+        return self._swing_ramp
+
+    @swing_ramp.setter
+    def swing_ramp(self, value) -> None:
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, np.floating))
+                                  or not 0.0 < value <= 0.5):
+            raise InvalidInputError(f"swing_ramp must be None (minimum-jerk) or a number in (0, 0.5], got {value!r}")
+        self._swing_ramp = None if value is None else float(value)
 
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
@@ -166,7 +193,8 @@ class WalkSteps:
         remaining = [(i, sw) for i, sw in enumerate(self.swings) if sw[2] > k]
         new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
         try:
-            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False, skip=skip)
+            rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False, skip=skip,
+                                 swing_ramp=self._swing_ramp)
         except GaitError:
             self.replan_failures += 1
             return
