@@ -194,7 +194,7 @@ class WalkSteps:
         new = [Footstep(sw[3].side, sw[3].x + d[0], sw[3].y + d[1], sw[3].yaw) for _, sw in remaining]
         try:
             rp = self._rp.replan(k - self._rp_k0, np.asarray(c), np.asarray(cd), new, check_start=False, skip=skip,
-                                 swing_ramp=self._swing_ramp)
+                                 swing_ramp=self.swing_ramp)
         except GaitError:
             self.replan_failures += 1
             return
