@@ -15,9 +15,10 @@ end, are half cosine waves, so that the velocity and the acceleration are contin
 
     b'(s) = g(s) / (1 − r),   g(s) = ½ (1 − cos(π s / r)) for s < r,  1 in between,  g(1 − s) for s > 1 − r,
 
-    b(s) = (s/2 − r/(2π) sin(π s / r)) / (1 − r) for s < r,  (s − r/2) / (1 − r) in between,  1 − b(1 − s) for s > 1 − r.
+    b(s) = (s/2 − r/(2π) sin(π s / r)) / (1 − r) for s < r,  (s − r/2) / (1 − r) in between,
+    b(s) = 1 − b(1 − s) for s > 1 − r.
 
-Its peak velocity is 1/(1 − r) times the average (1.43 at r = 0.3) and its peak acceleration b'' = π / (2 r (1 − r))
+Its peak velocity is 1/(1 − r) times the average (1.43 at r = 0.3), its peak acceleration b'' = π / (2 r (1 − r))
 (7.5 at r = 0.3, against the minimum-jerk blend's 5.77): for a given duration it asks a lower top speed and a higher
 acceleration. ``r = ½`` is the cosine bell (peak velocity 2).
 """

@@ -13,7 +13,6 @@ import pytest
 from wbc.estimation.contact_events import ContactEventThresholds
 from wbc.exceptions import InvalidInputError
 from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
-from wbc.sim.walk_steps import WalkSteps
 
 
 class _Robot:
@@ -200,10 +199,10 @@ def _campaign_trial(monkeypatch, index, excess_weight=None):
     ``excess_weight``, that ``WalkSteps.impact_excess_weight`` instead of the default."""
     import wbc.sim.walk as walk
     from wbc.campaign import default_spec, trial_params
-    monkeypatch.setattr(WalkSteps, "swing_ramp", None)  # the minimum-jerk re-plan this case was found with (records/79)
     from wbc.campaign.trials import walk_trial
     from wbc.sim.walk_steps import WalkSteps
 
+    monkeypatch.setattr(WalkSteps, "swing_ramp", None)  # the minimum-jerk re-plan this case was found with (records/79)
     if excess_weight is not None:
         monkeypatch.setattr(WalkSteps, "impact_excess_weight", excess_weight)
     walks = []
