@@ -46,6 +46,8 @@ def test_ramped_trapezoid_at_half_is_the_cosine_bell_and_rejects_other_ramps():
     # r = ½: b' = 1 − cos 2πs, b = s − sin(2πs)/(2π) (integrated by hand)
     assert b == pytest.approx(s - np.sin(2 * np.pi * s) / (2 * np.pi), abs=1e-12)
     assert db == pytest.approx(1.0 - np.cos(2 * np.pi * s), abs=1e-12)
-    for bad in (0.0, -0.1, 0.51, float("nan")):
-        with pytest.raises(ValueError, match="ramp"):
+    from wbc.exceptions import InvalidInputError
+
+    for bad in (0.0, -0.1, 0.51, float("nan"), "0.3", True, None):
+        with pytest.raises(InvalidInputError, match="ramp"):
             ramped_trapezoid(s, bad)

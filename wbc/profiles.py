@@ -27,6 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbc.exceptions import InvalidInputError
+
 __all__ = ["min_jerk", "min_jerk_ramp", "ramped_trapezoid"]
 
 
@@ -71,10 +73,10 @@ def ramped_trapezoid(s, ramp: float):
         ``(b, db/ds, d²b/ds²)``, arrays of ``s``'s shape.
 
     Raises:
-        ValueError: ``ramp`` outside (0, 0.5] (the callers validate it with their own typed errors first).
+        InvalidInputError: ``ramp`` not a number in (0, 0.5].
     """
-    if not 0.0 < ramp <= 0.5:
-        raise ValueError(f"ramp must be in (0, 0.5], got {ramp!r}")
+    if isinstance(ramp, bool) or not isinstance(ramp, (int, float, np.floating)) or not 0.0 < ramp <= 0.5:
+        raise InvalidInputError(f"ramp must be a number in (0, 0.5], got {ramp!r}")
     s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
     head, tail = s < ramp, s > 1.0 - ramp
     mid = ~(head | tail)
