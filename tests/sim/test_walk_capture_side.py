@@ -22,19 +22,18 @@ PUSH_9412_402 = ["sim", "walk", "--steps", "8", "--step-length", "0.25", "--step
 PUSH_TIME = 4.454422434811134
 
 
-def test_capture_step_after_a_wide_step_lifts_the_foot_away_from_the_dcm_and_passes(cli, tmp_path, monkeypatch):
+def test_capture_step_after_a_wide_step_lifts_the_foot_away_from_the_dcm_and_passes(cli, tmp_path):
     """The run completes with no fall and no joint past its speed limit. At each sole the controller releases after
     the push, the plant's DCM (its CoM plus the finite-difference velocity over ω = √(g / z₀)) is measured against
     both soles; at the first release with the soles more than 0.5 m apart — the capture step after the wide one —
-    the DCM is more than 0.35 m nearer the sole that stays than the one lifted (0.39 m measured since record 75; on
-    2ea5cc3 it was 0.42 m nearer the sole lifted). The walk ends 0.49 m off its line
-    (measured), which the pass criterion on the walked distance counts; since record 75 the capture step's landing
-    also slides 11.0 mm and the stance 7.0 mm (10 mm and 5 mm allowed): the other two criteria it fails. On the
-    minimum-jerk re-plan of the swing in progress (``swing_ramp`` None), with which it was found: with the ramped
-    trapezoid (the default since record 79) the same push ends with a joint past its limit (``leg_left_5``, 1.026×)."""
-    from wbc.sim.walk_steps import WalkSteps
-
-    monkeypatch.setattr(WalkSteps, "swing_ramp", None)
+    the DCM is more than 0.35 m nearer the sole that stays than the one lifted (0.52 m measured; on 2ea5cc3 it was
+    0.42 m nearer the sole lifted). The walk ends 0.55 m off its line and turned 6.1° (measured), which the pass
+    criteria on the walked distance and the final heading count. Since the capture walk adapts its step timing
+    (record 81: the capture swing 0.422 s instead of 0.444 s, its double support 0.120 s instead of 0.156 s) the
+    capture step's landed sole slides while the other foot closes: stance slip 50.1 mm (14.7 mm with the time held;
+    5 mm allowed), the third criterion it fails. With the time held the case was
+    found on the minimum-jerk re-plan of the swing in progress, and ended with a joint past its limit on the ramped
+    trapezoid on an AVX-512 machine (``leg_left_5``, 1.026×, record 79); the test now runs on the defaults."""
     log, out = tmp_path / "w.npz", tmp_path / "w.json"
     code, err, _ = cli(PUSH_9412_402 + ["--quiet", "--log", str(log), "--json", str(out)])
     s = json.loads(out.read_text())
@@ -50,7 +49,6 @@ def test_capture_step_after_a_wide_step_lifts_the_foot_away_from_the_dcm_and_pas
     assert not s["fell"] and s["completed"] and s["joint_speed_exceedances"] == 0, s["failed_criteria"]
     failed = [c.split(":")[0] for c in s["failed_criteria"]]
     assert code == 1 and "walked distance within 5% (≥ 1 cm) of the target" in failed, (err, failed)
-    # since record 75 the capture step also slides a little (measured: landing slide 11.0 mm, stance slip 7.0 mm)
-    assert set(failed) <= {"walked distance within 5% (≥ 1 cm) of the target", "landing slide ≤ 10 mm",
+    assert set(failed) <= {"walked distance within 5% (≥ 1 cm) of the target", "final heading within 5 deg of commanded",
                            "stance slip ≤ 5 mm"}, failed
-    assert s["max_landing_slide_m"] < 0.012 and s["max_stance_slip_m"] < 0.008, s["failed_criteria"]
+    assert s["max_landing_slide_m"] <= 0.01 and s["solver_failures"] == 0, s["failed_criteria"]

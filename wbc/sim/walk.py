@@ -31,8 +31,8 @@ Per control tick (the scenario's :meth:`WalkScenario.update`, then the controlle
   more than 1 cm the DCM plan and the swing are replanned from the new footstep and the measured CoM state
   (:meth:`wbc.gait.WalkPlan.replan` with ``footsteps``), the remaining footsteps moving with it. No change in the
   last ``adjust_freeze`` s of a swing. After the last step, a DCM outside the soles' hull (shrunk 2 cm) starts a
-  capture step (a 2-step walk planned from the measured state). Step timing adjustment (``adjust_timing``, default
-  on): the landing and the touch-down time of the swing from one QP on the DCM
+  capture step (a 2-step walk planned from the measured state, with the walk's ``adjust_timing``). Step timing
+  adjustment (``adjust_timing``, default on): the landing and the touch-down time of the swing from one QP on the DCM
   (:class:`wbc.gait.step_timing.StepTimingQP`, Khadiv et al. 2020), the swing cut short when the QP lands it 0.02 s
   or more earlier, no earlier than its foot can still travel at ``max_swing_speed``; late in a swing, a landing the
   foot can no longer reach in time lengthens the swing instead (``WalkScenario._stretch``), whose stretched rest
