@@ -195,7 +195,12 @@ def test_sim_cmd_vel_walks_and_stops_in_double_support(sim_node):
           f"{math.hypot(ex - gx, ey - gy) * 1e3:.1f} mm")
     assert "FELL" not in out
     assert got["t_stop"] - got["t_start"] >= seconds
-    assert abs(walked - vx * seconds) <= 0.10 * vx * seconds
+    # The walk advances in whole steps of vx T (T = 0.8 s, the node's step duration: 0.24 m), and the stop takes effect
+    # at the first touch-down after the 0.5 s /cmd_vel timeout: where the last command falls in a step decides
+    # whether one more step is taken. The distance is therefore vx · seconds within one step length (quiet: 1.447 m;
+    # with both cores busy, one step more: 1.681 m, which a 10 % band called a failure).
+    step = vx * 0.8
+    assert abs(walked - vx * seconds) <= step
     assert abs(truth - walked) <= 0.05  # /odom (the estimate) vs the plant's ground truth, 5 cm
     assert kind == "standing" and got["t_stop"] < t_stand < got["t_end"]  # stopped after the commands stopped
     # the stop (0.5 s /cmd_vel timeout) takes effect at the next touch-down, then one closing step (0.8 s) and the
