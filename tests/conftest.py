@@ -7,11 +7,38 @@ import sys
 import warnings
 from pathlib import Path
 
+import pytest
+
 # MuJoCo's offscreen renderer (video tests) picks its GL backend when mujoco is first imported: without a display,
 # README's test command gets the same headless EGL backend that .ci/run exports (a full run on Python 3.12 with the
 # default backend aborted in the renderer); a backend the user set is kept.
 if not os.environ.get("DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
+
+# One arithmetic for the suite on every x86-64 host. wbc's numba kernels are compiled with reassociation
+# (wbc.compiled.FASTMATH) for the CPU numba detects, OpenBLAS (numpy's, scipy's) picks its kernels by the CPU, and
+# numpy's own loops (sin, cos, exp, ...) dispatch to the widest vector unit there is: the last bits of a result depend
+# on the host (an AVX-512 znver4 and an AVX2 znver3 EPYC differ), and the fuzz-replay ticks and closed-loop physics
+# runs the tests replay follow those bits (a tick that cycles DAQP's workspace on one host is solved at once on the
+# other; a pushed walk's worst joint speed 1.0004x its limit on one, 1.04x on the other). The suite pins all three,
+# so that what a test replays is what it was found on, whatever the host: numba's kernels compiled for AMD's znver3
+# (AVX2 + FMA, its own feature set, none detected), OpenBLAS's Haswell kernels (what it picks on a znver3) and
+# numpy's AVX2 loops (its AVX-512 ones switched off where the CPU has them). Set before numpy and numba are imported;
+# pytest-xdist's workers and every child process inherit them. A host without AVX2 and FMA cannot run those kernels:
+# the session stops with that reason. wbc itself (`wbc walk`, the benchmarks) compiles for the CPU it runs on.
+TEST_CPU = {"NUMBA_CPU_NAME": "znver3", "NUMBA_CPU_FEATURES": "", "OPENBLAS_CORETYPE": "Haswell"}
+if sys.platform.startswith("linux") and os.uname().machine == "x86_64":
+    _flags = set(next((line.split(":", 1)[1].split() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                       if line.startswith("flags")), []))
+    if not {"avx2", "fma"} <= _flags:
+        raise pytest.UsageError("the test suite runs numba's kernels compiled for znver3 (AVX2 + FMA, one arithmetic "
+                                "on every host: tests/conftest.py); this CPU lacks " +
+                                ", ".join(sorted({"avx2", "fma"} - _flags)))
+    os.environ.update(TEST_CPU)
+    if "avx512f" in _flags:  # numpy's dispatch targets that need AVX-512 (numpy warns of one the CPU lacks)
+        os.environ["NPY_DISABLE_CPU_FEATURES"] = " ".join(
+            ["AVX512F", "AVX512CD", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL", "AVX512_ICL"]
+            + ["AVX512_SPR"] * ("avx512fp16" in _flags))
 
 # every wbc.compiled.specialise function checks its array arguments' types on each call in the tests (set before wbc
 # is imported; child processes inherit it)
@@ -19,11 +46,24 @@ os.environ["WBC_CHECK_KERNEL_TYPES"] = "1"
 
 import numpy as np
 import pinocchio as pin
-import pytest
 
 import wbc
 from wbc.constraints.base import IDContext
 from wbc.state import DynamicsState
+
+
+def pytest_configure(config):
+    """In the process that starts pytest-xdist's workers (two or more), first compile every kernel for the suite's
+    CPU (``TEST_CPU``) with ``wbc compile``: each worker then loads them from numba's cache rather than compiling the
+    same kernels at the same time as the other (about 40 s on 2 cores the first time, 6 s when they are cached)."""
+    import subprocess
+
+    workers = getattr(config.option, "numprocesses", None)
+    if os.environ.get("PYTEST_XDIST_WORKER") or not workers or workers in ("0", 0) or config.option.collectonly:
+        return
+    cores = os.cpu_count() or 1
+    jobs = cores if workers in ("auto", "logical") else max(1, min(int(workers), cores))
+    subprocess.run([sys.executable, "-m", "wbc", "compile", "--quiet", "--jobs", str(jobs)], check=True)
 
 
 _DDS_DOMAINS = {"next": None}
@@ -284,28 +324,11 @@ def kkt_gap(H, g, A, b, C, l, u, lb, ub, x, active_tol: float = 1e-8) -> float:
     return float(max(np.abs(r).max(), *primal)) / scale
 
 
-def numba_avx512() -> bool:
-    """Whether numba compiles the kernels for a CPU with AVX-512 (its cache key's feature string: the host's, or
-    ``NUMBA_CPU_NAME``/``NUMBA_CPU_FEATURES``). The kernels are compiled with reassociation
-    (``wbc.compiled.FASTMATH``), so their sums round by the vector width: which fuzz tick meets a rare solver path
-    (a DAQP workspace cycling to its iteration limit, a count spent before a stage) differs between an AVX-512 and
-    an AVX2 host."""
-    from numba.core.codegen import JITCPUCodegen
-
-    return "+avx512f" in JITCPUCodegen("probe").magic_tuple()[2].split(",")
-
-
-def per_host(avx512, avx2):
-    """The fuzz replay ticks found on an AVX-512 host (``avx512``) or on an AVX2 one (``avx2``), for the host numba
-    compiles for (:func:`numba_avx512`)."""
-    return avx512 if numba_avx512() else avx2
-
-
 #: (seed, episode, tick) of a kinematic fuzz tick (``fuzz_episode``; humanoid15, a far hand target, strict levels,
 #: dt 2 ms) that, replayed with ``FIRST_RESOLVE_WORK = inf`` on the controller, fails past its count: a sole drifts
 #: 0.1 mm even inside a trust region, the contact correction and the trust region are cut, the tick holds the
-#: contacts (``fallback:contacts_held``), the ticks before it ok. Of the host numba compiles for (``per_host``).
-HELD_PAST_COUNT_TICK = per_host((100014, 175, 3), (100016, 30, 5))
+#: contacts (``fallback:contacts_held``), the ticks before it ok (in the suite's arithmetic, ``TEST_CPU``).
+HELD_PAST_COUNT_TICK = (100016, 30, 5)
 
 
 def fuzz_episode(robots, seed: int, episode: int, dts=(0.002,), past_limits: float = 0.0):

@@ -819,8 +819,9 @@ def test_a_failed_tick_past_its_count_takes_the_held_command_first(robots):
 
     Since a re-solve after the tick's first solve is counted as ``FIRST_RESOLVE_WORK`` (1) until one is measured,
     that tick is solved; its failure, the path under test, is replayed with ``FIRST_RESOLVE_WORK = inf`` on the
-    instance (the first solve's count as the estimate, as before). Seed 100014 episode 175 tick 3 is of an AVX-512
-    host; on an AVX2 one the tick is seed 100016 episode 30 tick 5 (``HELD_PAST_COUNT_TICK``: a sole drifts 0.13 mm)."""
+    instance (the first solve's count as the estimate, as before). Seed 100014 episode 175 tick 3 was found on an
+    AVX-512 host; in the suite's arithmetic (``TEST_CPU``, conftest) the tick is seed 100016 episode 30 tick 5
+    (``HELD_PAST_COUNT_TICK``: a sole drifts 0.13 mm)."""
     dt, tol = 0.002, 5e-5
     seed, episode, tick = HELD_PAST_COUNT_TICK
     name, kind, strict, _, config, ctrl = fuzz_episode(robots, seed, episode)
@@ -1030,8 +1031,8 @@ def test_a_held_command_stopped_at_its_iteration_limit_falls_back_to_the_documen
 
     Since a re-solve after the tick's first solve is counted as ``FIRST_RESOLVE_WORK`` (1) until one is measured,
     that tick is solved; its failure, the path under test, is replayed with ``FIRST_RESOLVE_WORK = inf`` on the
-    instance (the first solve's count as the estimate, as before). On an AVX2 host the tick is seed 100016 episode 30
-    tick 5 (``HELD_PAST_COUNT_TICK``)."""
+    instance (the first solve's count as the estimate, as before). In the suite's arithmetic (``TEST_CPU``, conftest) the
+    tick is seed 100016 episode 30 tick 5 (``HELD_PAST_COUNT_TICK``)."""
     seed, episode, tick = HELD_PAST_COUNT_TICK
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, kind, strict) == ("humanoid15", "far", True)

@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from conftest import HELD_PAST_COUNT_TICK, count_cascades, fuzz_episode, highs_feasible, per_host
+from conftest import HELD_PAST_COUNT_TICK, count_cascades, fuzz_episode, highs_feasible
 from wbc.solvers.daqp import DaqpBackend
 
 DT = 0.002
@@ -72,10 +72,11 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     tick's count, its contact correction and trust region were skipped and the tick failed (sole drift 7.5e-5 m,
     ``fallback:contacts_held``). Now the one-shot call follows the warm workspace's stop: the tick is ok, its first
     QP's solution is a KKT point (closed form, relative to ‖g‖∞; quadprog's meets the same bound but differs by
-    3e-3, the QP's conditioning) and the soles stay within the drift bound by forward kinematics. That tick is of an
-    AVX-512 host; on an AVX2 one (``per_host``) it is seed 8103 episode 137 tick 9 (‖g‖∞ 3.7e13, Hessian conditioned
-    3e6, DAQP's workspace stopped at 1000 iterations, its one-shot call 20; quadprog's answer 5.4e-3 away)."""
-    seed, episode, tick = per_host((8142, 66, 4), (8103, 137, 9))
+    3e-3, the QP's conditioning) and the soles stay within the drift bound by forward kinematics. That tick was found
+    on an AVX-512 host; in the suite's arithmetic (``TEST_CPU``, conftest) it is seed 8103 episode 137 tick 9 (‖g‖∞
+    3.7e13, Hessian conditioned 3e6, DAQP's workspace stopped at 1000 iterations, its one-shot call 20; quadprog's
+    answer 5.4e-3 away)."""
+    seed, episode, tick = 8103, 137, 9
     name, kind, strict, _, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, strict) == ("humanoid15", True)
     _run_to(ctrl, config, tick)
@@ -94,7 +95,7 @@ def test_a_weighted_form_qp_that_cycles_daqp_workspace_is_solved_within_the_tick
     (H, g, A, b, C, lb, ub), x, iterations = calls[0]
     assert C.shape[0] == 0 and iterations >= 1000  # the weighted QP; DAQP's workspace ran to its limit
     assert np.linalg.cond(H) > 1e5 and np.abs(g).max() > 1e7  # the ill-conditioned weighted form of the fuzz tick
-    # a variable within DAQP's primal tolerance (1e-6) of a bound is at it (on the AVX2 tick both answers have
+    # a variable within DAQP's primal tolerance (1e-6) of a bound is at it (on this tick both answers have
     # variables 1e-9-1e-6 off a bound, where the gradient is not zero)
     assert _kkt_gap(H, g, A, b, lb, ub, x, active_tol=1e-6) <= 1e-9
     ref = _quadprog(H, g, A, b, lb, ub)
@@ -215,8 +216,8 @@ def test_the_checks_of_a_held_command_are_counted_and_stop_at_the_work_limit(rob
 
     Since a re-solve after the tick's first solve is counted as ``FIRST_RESOLVE_WORK`` (1) until one is measured,
     that tick is solved; its failure, the path under test, is replayed with ``FIRST_RESOLVE_WORK = inf`` on the
-    instance (the first solve's count as the estimate, as before). On an AVX2 host the tick is seed 100016 episode 30
-    tick 5 (``HELD_PAST_COUNT_TICK``)."""
+    instance (the first solve's count as the estimate, as before). In the suite's arithmetic (``TEST_CPU``, conftest) the
+    tick is seed 100016 episode 30 tick 5 (``HELD_PAST_COUNT_TICK``)."""
     from wbc.controllers.contact_hold import DriftMeter
     from wbc.controllers.kinematic import KinematicController
 
@@ -311,9 +312,10 @@ def test_a_cut_cascades_weighted_form_counts_its_own_work_for_the_contact_correc
     (forward kinematics, own Data) and its counted solves within 1.75 × 8 + 1; a tick whose cascade was cut is
     answered by the weighted form (path 'levels+budget+weighted').
 
-    Which stage a replay reaches depends on the CPU's rounding (numba compiles for the host): on an AVX-512 machine
-    8118/32 is cut after its first level, as 8130/5, and 8153/66's cascade ends after its correction ('levels+budget',
-    the correction's re-solves cut). At least two of the three reach the weighted form on every machine seen."""
+    Which stage a replay reaches depends on the CPU's rounding (the suite pins it: ``TEST_CPU``, conftest): natively
+    on an AVX-512 machine 8118/32 is cut after its first level, as 8130/5, and 8153/66's cascade ends after its
+    correction ('levels+budget', the correction's re-solves cut). At least two of the three reach the weighted form
+    on every machine seen."""
     weighted = 0
     for seed, episode in ((8100, 16), (8118, 32), (8103, 45)):
         name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
@@ -419,7 +421,7 @@ def test_a_weighted_form_re_solve_goes_to_the_band_rows_its_tick_already_needed(
 
 
 @pytest.mark.parametrize("seed, episode, tick, feasible", [(8112, 109, 41, False), (8116, 751, 39, True),
-                                                            per_host((8114, 321, 42, True), (8102, 968, 48, True))])
+                                                            (8102, 968, 48, True)])
 def test_a_cycling_daqp_workspace_hands_a_re_solve_over_within_the_stage_iterations(robots, monkeypatch, seed,
                                                                                      episode, tick, feasible):
     """Strict-level failures of the 10⁶-tick kinematic fuzz on main bfa375f (s70; default flags, humanoid15, strict
@@ -430,8 +432,8 @@ def test_a_cycling_daqp_workspace_hands_a_re_solve_over_within_the_stage_iterati
     stage and the tick failed (``fallback:contacts_held``, drift 0.05–0.1 mm). Those solves now take at most
     ``STAGE_ITERATIONS`` per DAQP call: the tick is ok within 1.75 × 8 counted solves, within the joint velocity
     limits, its soles within 0.05 mm and 3e-4 rad of where their rows send them (forward kinematics, own Data).
-    8114/321/42 is of an AVX-512 host; on an AVX2 one (``per_host``) it is 8102/968/48, two of whose re-solves stop
-    at the stage cap."""
+    8114/321/42 was found on an AVX-512 host; in the suite's arithmetic (``TEST_CPU``, conftest) it is 8102/968/48,
+    two of whose re-solves stop at the stage cap."""
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     assert (name, strict, dt) == ("humanoid15", True, DT)
     _run_to(ctrl, config, tick)
@@ -462,9 +464,9 @@ def test_a_cycling_daqp_workspace_hands_a_re_solve_over_within_the_stage_iterati
 def test_the_stage_iteration_cap_leaves_the_callers_own_cap(robots, monkeypatch, caller_cap):
     """The tick caps its later DAQP calls for its own stages only: a cap the caller set on the controller's DAQP
     backend (``call_iterations``) is what the backend has after the tick, and a lower one holds inside it (the
-    8114/321/42 tick of the test above, whose re-solves meet the stage cap; on an AVX2 host, ``per_host``, 8103/623/7,
-    whose first solve is one DAQP call and two re-solves stop at the stage cap)."""
-    seed, episode, tick = per_host((8114, 321, 42), (8103, 623, 7))
+    tick 8103/623/7 in the suite's arithmetic, ``TEST_CPU``, whose first solve is one DAQP call and two re-solves stop
+    at the stage cap; 8114/321/42 natively on an AVX-512 host)."""
+    seed, episode, tick = 8103, 623, 7
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     _run_to(ctrl, config, tick)
     ctrl.backend.call_iterations = caller_cap
@@ -483,8 +485,7 @@ def test_the_stage_iteration_cap_leaves_the_callers_own_cap(robots, monkeypatch,
     assert len(limits) > 1 and max(limits[1:]) <= (150 if caller_cap is None else min(150, caller_cap))
 
 
-@pytest.mark.parametrize("seed, episode, tick", per_host([(8110, 72, 2), (8130, 22, 4)],
-                                                         [(8103, 597, 4), (8100, 472, 5)]))
+@pytest.mark.parametrize("seed, episode, tick", [(8103, 597, 4), (8100, 472, 5)])
 def test_a_workspace_that_cycles_in_the_first_solve_hands_over_to_the_one_shot_call(robots, monkeypatch, seed,
                                                                                      episode, tick):
     """Failures of the 10⁶-tick kinematic fuzz (s72, 11 of them) with the one-shot call after a cycling workspace
@@ -493,9 +494,9 @@ def test_a_workspace_that_cycles_in_the_first_solve_hands_over_to_the_one_shot_c
     the tick held (``fallback:hold``, drift 0.059 mm). With the one-shot call right after the cycling workspace the
     tick is ok, a DAQP call of the tick reached the 1000-iteration limit, the soles within 0.05 mm and 3e-4 rad of
     where their rows send them (forward kinematics, own Data). (8103/348/23, the second such tick, does not cycle on
-    an AVX-512 machine, where numba's kernels round differently: only 8111/320/5 is replayed.) The ticks are of an
-    AVX-512 host; on an AVX2 one (``per_host``) 8103/597/4 (the tick's flat QP) and 8100/472/5 (its band rows' QP)
-    cycle in the first solve."""
+    an AVX-512 machine, where numba's kernels round differently: only 8111/320/5 is replayed.) In the suite's
+    arithmetic (``TEST_CPU``, conftest) 8103/597/4 (the tick's flat QP) and 8100/472/5 (its band rows' QP) cycle in
+    the first solve (8110/72/2 and 8130/22/4 natively on an AVX-512 host)."""
     name, kind, strict, dt, config, ctrl = fuzz_episode(robots, seed, episode)
     assert strict and dt == DT
     _run_to(ctrl, config, tick)
