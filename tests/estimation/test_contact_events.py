@@ -97,6 +97,28 @@ def test_touchdown_early_late_and_liftoff_against_the_plan():
     assert [(e.kind, e.cause) for e in ev] == [("liftoff", "planned")]
 
 
+def test_a_detector_continued_from_another_keeps_its_loss_and_starts_the_plan_timing_anew():
+    """A new plan's detector (the walk's capture walk, on its own clock) continued from the old one: a sole the old
+    events saw leave the ground stays out of contact (a fresh detector takes it as standing), a change pending there
+    starts again, and the new plan's late landing counts from its own first tick."""
+    old = SoleContactEvents("left", L, W, WEIGHT, DT)
+    for k in range(10):  # unloaded, 1 cm up: a loss at the 5th tick
+        old.update(k * DT, _wrench(0.0), FLAT, [0, 0, 0.01], 0.0, True)
+    assert not old.in_contact and [e.kind for e in old.events] == ["loss"]
+    fresh, new = SoleContactEvents("left", L, W, WEIGHT, DT), SoleContactEvents("left", L, W, WEIGHT, DT)
+    new.continue_from(old)
+    assert new.in_contact is False and new.cause == "unloaded" and new.loaded is False
+    kinds, kinds_fresh = [], []
+    for k in range(40):  # on the new clock: planned down, still 1 cm up and unloaded
+        kinds += [(e.kind, round(e.t / DT)) for e in new.update(k * DT, _wrench(0.0), FLAT, [0, 0, 0.01], 0.0, True)]
+        kinds_fresh += [e.kind for e in fresh.update(k * DT, _wrench(0.0), FLAT, [0, 0, 0.01], 0.0, True)]
+    assert kinds == [("late", 15)]  # 0.03 s after the new plan's first tick
+    assert kinds_fresh == ["loss"]  # the fresh one starts in contact and loses it again, 10 ms late
+    for k in range(40, 50):  # set down flat and loaded: a touch-down at the 5th tick
+        kinds += [(e.kind, round(e.t / DT)) for e in new.update(k * DT, _wrench(500.0), FLAT, [0, 0, 0], 0.0, True)]
+    assert kinds[-1] == ("touchdown", 44) and new.in_contact
+
+
 @pytest.mark.parametrize("kwargs", [dict(load_on=0.01, load_off=0.02), dict(air_height=-1.0),
                                     dict(touch_height=0.01, air_height=0.005), dict(confirm_time=math.nan),
                                     dict(flat_tilt=0.2, edge_tilt=0.1)])

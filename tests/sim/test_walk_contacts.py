@@ -4,6 +4,7 @@ on the ground, a measured touch-down switches it on again."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -257,3 +258,28 @@ def test_a_stance_sole_lost_before_its_lift_off_swings_on_time(monkeypatch):
         assert landed and landed[0] - starts[0] < 0.7, index  # a swing (0.6 s steps), not a sole held until it loads
         assert row["survived"] and row["completed"], (index, row)
     assert checked, f"no trial of {sorted(LOST_STANCE_SOLES)} released its stance sole in its window"
+
+
+def test_the_capture_walk_after_the_plan_follows_the_contact_events(cli, tmp_path):
+    """The capture walk that ``WalkScenario._start_recovery`` plans once every step is taken (a 2-step walk from the
+    measured state) follows the measured contact events too, on the walk's clock in the summary. Trial 402 of push
+    campaign 9412 (``tests/sim/test_walk_capture_side.py``'s walk) with ``--contact-events``: the capture walk starts
+    at 5.168 s; its steps' lift-offs and touch-downs are events, and after the right foot's further 0.45 m lateral
+    landing (6.342 s) the left sole, rolled onto its front edge and lifting 7-14 mm off the floor with the plant's
+    load on it at 0 N on most ticks, is released for an ``unloaded`` loss and set down again (measured in the suite's
+    arithmetic: loss 6.390 s, set down 6.710 s). Before the change the capture walk ran without the events: the
+    summary had none after 5.112 s, and the sole stayed a contact."""
+    from test_walk_capture_side import PUSH_9412_402
+
+    out = tmp_path / "w.json"
+    cli(PUSH_9412_402 + ["--contact-events", "--quiet", "--json", str(out)])
+    s = json.loads(out.read_text())
+    t0 = s["recovery_step_time_s"]
+    assert t0 is not None and 5.1 < t0 < 5.3, t0
+    after = [(e["t"], e["sole"], e["kind"], e["cause"]) for e in s["contact_events"] if e["t"] > t0]
+    assert ("right", "liftoff") in {(sole, kind) for _, sole, kind, _ in after}, after
+    assert any(sole == "right" and kind == "touchdown" and 6.3 < t < 6.4 for t, sole, kind, _ in after), after
+    loss = [t for t, sole, kind, cause in after if sole == "left" and kind == "loss" and cause == "unloaded"]
+    assert loss and 6.35 < loss[0] < 6.5, after
+    acts = [(r["sole"], r["action"]) for r in s["contact_releases"] if r["t"] >= loss[0]]
+    assert acts[:2] == [("left", "release"), ("left", "touchdown")], s["contact_releases"]

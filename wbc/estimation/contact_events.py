@@ -200,6 +200,17 @@ class SoleContactEvents:
         self._planned_since: float | None = 0.0 if in_contact else None  # plan: on the ground since (s)
         self._late_sent = bool(in_contact)
 
+    def continue_from(self, other: "SoleContactEvents") -> None:
+        """Take over the confirmed state (in contact, loaded, cause) of ``other``, the same sole's detector of a plan
+        that hands over to a new one on its own clock (the walk's capture walk,
+        :meth:`wbc.sim.walk_steps.WalkSteps._start_recovery`): a sole the old plan's events saw leave the ground is not
+        taken as standing again. A change pending there starts again; the plan's timing (early/late) starts with the
+        new plan's first tick."""
+        self.in_contact, self.loaded, self.cause = other.in_contact, other.loaded, other.cause
+        self._pending = 0
+        self._planned_since = 0.0 if self.in_contact else None
+        self._late_sent = self.in_contact
+
     def _measure(self, wrench: np.ndarray, rotation: np.ndarray, position: np.ndarray, ground: float) -> _Measured:
         f = np.asarray(wrench, dtype=float)
         R = np.asarray(rotation, dtype=float)

@@ -96,12 +96,16 @@ class WalkSteps:
                            first_side=side, stabilizer=self.stabilizer_on, ramp_time=self.ramp_time,
                            zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=self.adjust_timing, cmp_offset=self.cmp_offset,
-                           stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight)
+                           stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight,
+                           contact_events=self.contact_thresholds or False)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
             self.recovery_failures += 1  # (not tried again: see the trigger in update)
             return
+        if self.contact_monitor is not None:  # the events go on from what they measured (not from standing)
+            for side, sole in rec.contact_monitor.soles.items():
+                sole.continue_from(self.contact_monitor.soles[side])
         self._recovery, self._t_recovery = rec, float(t)
 
     def _capture_excess(self, xi: np.ndarray, side: str) -> float:
@@ -127,6 +131,7 @@ class WalkSteps:
         rec = self._recovery
         rec.measured_zmp = self.measured_zmp
         rec.measured_normal_force = self.measured_normal_force
+        rec.measured_wrench = self.measured_wrench
         rec.update(t - self._t_recovery, controller, sim, q, v)
         pin.framesForwardKinematics(self._model, self._data, q)
         i = min(self._k, len(self.log["phase"]) - 1)

@@ -190,7 +190,12 @@ class WalkSummary:
             if ts["min_swing_clearance_m"] is None:
                 ts["min_swing_clearance_m"] = float("inf")
             out.update(ts)
-        out.update(self.contact_events_summary())  # (empty unless contact_events)
+        events = self.contact_events_summary()  # (empty unless contact_events)
+        if events and self._recovery is not None:  # the capture walk's, on the walk's clock
+            for key, rows in self._recovery.contact_events_summary().items():
+                if key != "contact_event_latency_s":
+                    events[key] += [{**row, "t": row["t"] + self._t_recovery} for row in rows]
+        out.update(events)
         run.extra.update({"support_phase": lg["phase"], "measured_cop": cop, "measured_cop_margin": margin,
                           "dcm": lg["dcm"], "dcm_ref": lg["dcm_ref"], "cop_cmd": lg["cop_cmd"]})
         return out
