@@ -117,6 +117,9 @@ def test_a_detector_continued_from_another_keeps_its_loss_and_starts_the_plan_ti
     for k in range(40, 50):  # set down flat and loaded: a touch-down at the 5th tick
         kinds += [(e.kind, round(e.t / DT)) for e in new.update(k * DT, _wrench(500.0), FLAT, [0, 0, 0], 0.0, True)]
     assert kinds[-1] == ("touchdown", 44) and new.in_contact
+    for bad in (SoleContactEvents("right", L, W, WEIGHT, DT), None):  # another sole's, or not a detector
+        with pytest.raises(InvalidInputError, match="left sole's SoleContactEvents"):
+            new.continue_from(bad)
 
 
 @pytest.mark.parametrize("kwargs", [dict(load_on=0.01, load_off=0.02), dict(air_height=-1.0),

@@ -205,7 +205,16 @@ class SoleContactEvents:
         that hands over to a new one on its own clock (the walk's capture walk,
         :meth:`wbc.sim.walk_steps.WalkSteps._start_recovery`): a sole the old plan's events saw leave the ground is not
         taken as standing again. A change pending there starts again; the plan's timing (early/late) starts with the
-        new plan's first tick."""
+        new plan's first tick.
+
+        Args:
+            other: a :class:`SoleContactEvents` of the same sole.
+
+        Raises:
+            InvalidInputError: ``other`` is not a :class:`SoleContactEvents`, or is another sole's.
+        """
+        if not isinstance(other, SoleContactEvents) or other.sole != self.sole:
+            raise InvalidInputError(f"continue_from needs the {self.sole} sole's SoleContactEvents, got {other!r}")
         self.in_contact, self.loaded, self.cause = other.in_contact, other.loaded, other.cause
         self._pending = 0
         self._planned_since = 0.0 if self.in_contact else None
