@@ -155,3 +155,18 @@ def test_set_torques_writes_the_envelope_of_the_numpy_reference(talos):
     for bad in (np.full(n, np.nan), np.zeros(n - 1), [0.0] * (n + 1)):
         with pytest.raises(ConfigurationError):
             sim.set_torques(bad)
+
+
+def test_leg_joints_of_one_side_are_that_leg_chain(talos):
+    """leg_joints(robot, sides): the joints on the chain from the base to each sole of ``sides`` (Talos's names say
+    which: leg_left_* / leg_right_*); both sides: their union; a side not "left"/"right" is refused."""
+    from wbc.sim.actuators import leg_joints
+
+    names = talos.model.names[2:]
+    left, right = leg_joints(talos, ("left",)), leg_joints(talos, ("right",))
+    np.testing.assert_array_equal(left, [n.startswith("leg_left_") for n in names])
+    np.testing.assert_array_equal(right, [n.startswith("leg_right_") for n in names])
+    np.testing.assert_array_equal(leg_joints(talos), left | right)
+    for bad in ("left", ("up",), ("left", 1)):
+        with pytest.raises(InvalidInputError, match="sides"):
+            leg_joints(talos, bad)

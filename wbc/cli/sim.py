@@ -28,6 +28,11 @@ JUMP_VELOCITY_MEMORY = 0.5
 MASS_ERROR_VALID = ("0 <= value < 100: a ± bound in %, each link's mass scaled by 1 + e with e uniform in "
                     "[-value, +value] %; give its magnitude, e.g. --mass-error 10 for ±10 %")
 
+def _trailing_release(text: str) -> float | str:
+    """An argparse type: ``off``, or ρ in (0, 1] (a fraction of the joint speed limits)."""
+    return "off" if text == "off" else finite(0.0, 1.0, lo_open=True, valid="0 < RHO <= 1, or off")(text)
+
+
 _SCENARIO_CHOICES = ("stand", "sway", "one-leg", "push", "walk", "wave", "jump", "push-step")
 
 
@@ -179,6 +184,10 @@ def register(subparsers, add_outputs) -> None:
                         "the leg kinematics (a sole that lost contact gets no force until it is down again; "
                         "wbc.sim.walk_contacts; needs --state estimated; default: on for push-step with --state "
                         "estimated, off otherwise)")
+    w.add_argument("--trailing-release", type=_trailing_release, default=None, metavar="RHO|off",
+                   help="walk: in a double support after a touch-down, the sole of the next swing is released at once "
+                        "when a joint of its leg moves at RHO or more of its speed limit (0 < RHO <= 1; off: never; "
+                        "default: wbc.sim.walk_steps.TRAILING_RELEASE; WalkSteps._release_trailing)")
     w.add_argument("--seed", type=int, default=0, help="random seed (perturbations; default 0)")
     w.add_argument("--mass-error", type=finite(0.0, 100.0, valid=MASS_ERROR_VALID), default=0.0,
                    help="walk: plant link-mass error bound, %%: each link's mass scaled by 1 + e, e uniform in "
@@ -270,6 +279,8 @@ def _scenario(args, robot):
                             terrain=None if args.blind else getattr(args, "terrain", None),
                             **({} if args.base_weight is None else {"base_weight": args.base_weight}),
                             blind=args.blind, contact_events=args.contact_events,
+                            **({} if args.trailing_release is None else
+                               {"trailing_release": None if args.trailing_release == "off" else args.trailing_release}),
                             await_load=robot.spec is not None and robot.spec.touchdown == "load")
     if args.scenario == "push-step":  # standing push recovered by a capture step (wbc.sim.capture_step)
         from wbc.sim.capture_step import CaptureStepScenario

@@ -261,12 +261,18 @@ def speed_horizon(delay: int = 0) -> float:
     return SPEED_HORIZON + SPEED_HORIZON_PER_DELAY_TICK * int(delay)
 
 
-def leg_joints(robot) -> np.ndarray:
+def leg_joints(robot, sides: tuple[str, ...] = ("left", "right")) -> np.ndarray:
     """(nv − 6,) bool, Pinocchio's actuated velocity order: True for the joints on the kinematic chains from the
-    floating base to the two sole frames (the legs)."""
+    floating base to the sole frames of ``sides`` (the legs; default both).
+
+    Raises:
+        InvalidInputError: a side other than "left" or "right".
+    """
+    if isinstance(sides, str) or any(s not in ("left", "right") for s in sides):
+        raise InvalidInputError(f"sides must be a tuple of 'left' and/or 'right', got {sides!r}")
     model = robot.model
     mask = np.zeros(model.nv - 6, dtype=bool)
-    for sole in (robot.left_sole, robot.right_sole):
+    for sole in (robot.left_sole if s == "left" else robot.right_sole for s in sides):
         for j in model.supports[model.frames[robot.frame_id(sole)].parentJoint]:
             jm = model.joints[j]
             if jm.idx_v >= 6:

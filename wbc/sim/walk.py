@@ -70,7 +70,7 @@ from wbc.gait.stabilizer import DcmStabilizer, stabilizer_kernel, support_kernel
 from wbc.gait.step_adjustment import StepAdjuster
 from wbc.gait.step_timing import StepTimingQP
 from wbc.sim.physics_scenarios import contacts_rank_deficient
-from wbc.sim.walk_steps import WalkSteps
+from wbc.sim.walk_steps import TRAILING_RELEASE, WalkSteps
 from wbc.sim.walk_summary import WalkSummary
 from wbc.sim.walk_contacts import WalkContactEvents, contact_events_option
 from wbc.sim.walk_support import WalkSupport
@@ -236,10 +236,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         impact_window: s before a swing's planned touch-down (and after it, while the sole is in swing) in which
             the ID controller bounds the leg joints' speeds after the impact of that sole, flat or on a corner
             (:class:`wbc.constraints.impact.ImpactSpeedBounds`, added to its QP at :meth:`setup`); 0: off.
-        reach_ratio: ρ in (0, 1], or None (off): a swing whose time the step timing QP adapts touches down no later
-            than the stance leg's hip-to-ankle distance reaches ρ × the leg's stretched length on the LIPM
-            (:func:`wbc.gait.stance_reach.stance_reach_time`; default
-            :data:`~wbc.gait.stance_reach.STANCE_REACH_RATIO`); :attr:`reach_cuts` counts the swings whose time it set.
+        reach_ratio: ρ in (0, 1], or None (off): :attr:`~wbc.sim.walk_steps.WalkSteps.reach_ratio`.
+        trailing_release: ρ in (0, 1], or None (off): :attr:`~wbc.sim.walk_steps.WalkSteps.trailing_release` (the
+            summary's ``trailing_releases``).
 
     Torso heading: in a turning plan (a footstep yaw more than 0.01 rad from the start feet's mean heading) the ID
     controller's torso orientation reference turns with the feet: at each tick it is the reference held at
@@ -273,11 +272,9 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
                  blind: bool = False, touchdown_load: float = 0.05, await_load: bool = False, contact_events=False,
                  swing_froude: float | None = None, swing_height_weight: float | None = None,
                  hurry_double_support: bool = True, impact_window: float = 0.04,
-                 reach_ratio: float | None = STANCE_REACH_RATIO):
+                 reach_ratio: float | None = STANCE_REACH_RATIO, trailing_release: float | None = TRAILING_RELEASE):
         from wbc.terrain import parse_terrain
-        if reach_ratio is not None and not check_scalar(reach_ratio, "reach_ratio", "of the leg", strict=True) <= 1:
-            raise InvalidInputError(f"reach_ratio must be a number in (0, 1] or None, got {reach_ratio!r}")
-        self.reach_ratio = None if reach_ratio is None else float(reach_ratio)
+        self.reach_ratio, self.trailing_release = reach_ratio, trailing_release  # (validated: WalkSteps' setters)
         self.hurry_double_support = check_flag(hurry_double_support, "hurry_double_support")
         self.impact_window = check_scalar(impact_window, "impact_window", "s")
         self.contact_thresholds = contact_events_option(contact_events)
@@ -601,7 +598,7 @@ class WalkScenario(WalkSupport, WalkSteps, WalkSummary, WalkContactEvents):
         k = int(min(max(round(tf / plan.dt), 0), n_samples - 1)) if math.isfinite(tf) else plan.index(t)
         k = min(k + self._shift, n_samples - 1)
         tp = k * dt  # plan clock
-        self._release_next_swing(t, tp, k, q)  # (its ramp-out, so that the foot is released at its lift-off)
+        self._release_next_swing(t, tp, k, q, controller, v)  # (its ramp-out, the foot released at its lift-off)
         if self.terrain_walk is not None or self.blind:
             self._relative_ground(k, q)
         for side, (_, k_lift, k_td, fs) in self._active.items():

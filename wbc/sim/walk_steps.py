@@ -14,17 +14,33 @@ from wbc.exceptions import GaitError, InvalidInputError
 from wbc.formulations.reference import AccelerationReference
 from wbc.gait import Footstep
 from wbc.gait.blind import BLIND_XY_END
-from wbc.gait.stance_reach import stance_reach_time
+from wbc.gait.stance_reach import STANCE_REACH_RATIO, stance_reach_time
 from wbc.gait.step_adjustment import StretchLimits
-from wbc.geometry import convex_hull, polygon_margin, projected_sole_corners
+from wbc.geometry import check_scalar, convex_hull, polygon_margin, projected_sole_corners
+from wbc.sim.actuators import leg_joints
 from wbc.sim.scenarios import timed_push
 
-__all__ = ["WalkSteps", "SWING_RAMP"]
+_ZERO6 = np.zeros(6)  # (a held foot's velocity and acceleration feed-forward; read, never written)
+
+
+def _fraction_or_none(value, what: str, unit: str) -> float | None:
+    """None, or ``value`` as a float in (0, 1]; else an InvalidInputError naming ``what``."""
+    if value is not None and not check_scalar(value, what, unit, strict=True) <= 1:
+        raise InvalidInputError(f"{what} must be a number in (0, 1] or None, got {value!r}")
+    return None if value is None else float(value)
+
+__all__ = ["WalkSteps", "SWING_RAMP", "TRAILING_RELEASE"]
 
 #: r of :attr:`WalkSteps.swing_ramp`: the velocity of a re-planned swing in progress ramps up and down over 0.3 of its
 #: rest (:func:`wbc.profiles.ramped_trapezoid`; peak 1.43 times the average, against the minimum-jerk blend's 1.875).
 #: Chosen on a screen of push campaign 9417 (benchmarks/records/79): 0.3 against 0.4 and the minimum-jerk blend.
 SWING_RAMP = 0.3
+
+#: ρ of :attr:`WalkSteps.trailing_release` (:meth:`WalkSteps._release_trailing`): the sole of the next swing is let go in a double
+#: support once a joint of its leg moves at ρ of its URDF speed limit (estimated). The unpushed Talos walk stays
+#: under 0.31; in the speed failures of push campaign 9420 the trailing knee's speed bound held the QP from 0.8 on
+#: (benchmarks/records/85): 0.8 against 0.9 on its 102 failures, 100 of its survivors unchanged.
+TRAILING_RELEASE = 0.8
 
 
 class WalkSteps:
@@ -54,6 +70,40 @@ class WalkSteps:
                                   or not 0.0 < value <= 0.5):
             raise InvalidInputError(f"swing_ramp must be None (minimum-jerk) or a number in (0, 0.5], got {value!r}")
         self._swing_ramp = None if value is None else float(value)
+
+    _reach_ratio: float | None = STANCE_REACH_RATIO
+    _trailing_release: float | None = TRAILING_RELEASE
+
+    @property
+    def reach_ratio(self) -> float | None:
+        """ρ in (0, 1], or None (off): a swing whose time the step timing QP adapts touches down no later than the
+        stance leg's hip-to-ankle distance reaches ρ × the leg's stretched length on the LIPM
+        (:func:`wbc.gait.stance_reach.stance_reach_time`; default :data:`~wbc.gait.stance_reach.STANCE_REACH_RATIO`);
+        :attr:`reach_cuts` counts the swings whose time it set.
+
+        Raises:
+            InvalidInputError: on assignment, a value that is not None or a number in (0, 1].
+        """
+        return self._reach_ratio
+
+    @reach_ratio.setter
+    def reach_ratio(self, value) -> None:
+        self._reach_ratio = _fraction_or_none(value, "reach_ratio", "of the leg")
+
+    @property
+    def trailing_release(self) -> float | None:
+        """ρ in (0, 1], or None (off): in a double support after a touch-down, the sole of the next swing is released
+        at once when a joint of its leg moves at ρ or more of its URDF speed limit (:meth:`_release_trailing`; default
+        :data:`TRAILING_RELEASE`); :attr:`trailing_releases` lists them as (t s, side, speed / limit).
+
+        Raises:
+            InvalidInputError: on assignment, a value that is not None or a number in (0, 1].
+        """
+        return self._trailing_release
+
+    @trailing_release.setter
+    def trailing_release(self, value) -> None:
+        self._trailing_release = _fraction_or_none(value, "trailing_release", "of the joint speed limit")
 
     def _start_recovery(self, t, controller, sim, q, v, xi):
         """All steps taken and the measured DCM outside the soles' hull shrunk by ``recovery_margin``: a capture step
@@ -97,7 +147,7 @@ class WalkSteps:
                            zmp_feedback=self.zmp_feedback,
                            cop_margin=self.cop_margin, adjust_timing=self.adjust_timing, cmp_offset=self.cmp_offset,
                            stabilizer_gains=self.stabilizer_gains, swing_height_weight=self.swing_height_weight,
-                           contact_events=self.contact_thresholds or False)
+                           contact_events=self.contact_thresholds or False, trailing_release=self.trailing_release)
         try:
             rec.setup(controller, sim, q, v)
         except GaitError:  # e.g. a sole already tilted off the floor: no step can be planned from here
@@ -302,6 +352,9 @@ class WalkSteps:
         return self.adjuster.landing(moved, stance, np.zeros(2)), skip
 
     _legs = None  # wbc.gait.stance_reach.stance_legs of the robot when reach_ratio is set (WalkScenario.setup)
+    _leg_v = _trailing_hold = None  # _release_trailing's, set at its first call
+    #: (t s, side, the leg's largest joint speed / its limit) of each sole :meth:`_release_trailing` let go
+    trailing_releases: list | tuple = ()
     _reach_cut = -1  # the last swing whose time the stance leg's reach cut (_step_timing's count of reach_cuts)
     _impact = None  # the controller's ImpactSpeedBounds (_impact_setup), or None
     #: weight of the post-impact rates past their bound (ImpactSpeedExcess, (rad/s²)⁻²); 0: those rows free. At 10
@@ -391,11 +444,14 @@ class WalkSteps:
         del self.adjustments[n_adj:]
         self._relift = self._pre_stretch = None
 
-    def _release_next_swing(self, t: float, tp: float, k: int, q: np.ndarray) -> None:
+    def _release_next_swing(self, t: float, tp: float, k: int, q: np.ndarray, controller, v: np.ndarray) -> None:
         """Start the ramp-out of the next swing (``_next``) at plan time ``tp`` (s; plan sample ``k``, configuration
         ``q``) so that its foot is released at the planned lift-off, never while the other foot is not yet down (a
         late touch-down: the step waits) nor while ``hold_next_swing``; on terrain or blind, the ground height its
-        touch-down is detected above and the sole's measured − planned height at its release (``_relative_ground``)."""
+        touch-down is detected above and the sole's measured − planned height at its release (``_relative_ground``).
+        First, a trailing sole whose leg cannot follow is let go at once (:meth:`_release_trailing`; ``controller``,
+        its state's ``v``)."""
+        self._release_trailing(t, controller, v)
         if self._next < len(self.swings):
             side, k_lift, k_td, fs = self.swings[self._next]
             other = "right" if side == "left" else "left"
@@ -405,6 +461,8 @@ class WalkSteps:
                     and not self.hold_next_swing:
                 if self.switcher.phase(side) in ("stance", "loading"):
                     self.switcher.unload(side, t)
+                elif self._trailing_hold and self._trailing_hold[side] is not None:  # (_release_trailing's)
+                    self._trailing_hold[side] = None
                 elif not self._lost_sole_swings(side):
                     return
                 if self.terrain_walk is not None or self.blind:
@@ -420,6 +478,55 @@ class WalkSteps:
                 self.swing_starts.append((float(t), side))
                 self._active[side] = self.swings[self._next]
                 self._next += 1
+
+    def _release_trailing(self, t: float, controller, v: np.ndarray) -> None:
+        """The trailing sole let go when its leg cannot follow the body (``trailing_release`` ρ; None: off).
+
+        In a double support after the other sole's touch-down, the sole of the next swing (not yet unloading) is
+        released at once (:meth:`~wbc.dynamics.contact_switching.ContactSwitcher.release`: no ramp-out) when a joint
+        of its leg moves at ρ or more of its URDF speed limit in ``v`` (nv,) (the controller's state, rad/s). It is
+        then held where it was released, flat, at its yaw (a frame task, not a contact), until its planned swing starts
+        from there (:meth:`_release_next_swing`).
+
+        Why: after a long or fast step (a capture step) the body moves away from the trailing sole, and that leg
+        stretches at the speed its knee or hip allows. Held as a contact (its sole's acceleration 0), the trailing
+        leg's joint speed bounds then bound the base's motion in the QP: its best answer lets the body fall (push
+        campaign 9420, trial 527: 126–179 N planned in all in 1.900–1.912 s while the plant's soles carry 363–802 N),
+        and the landed leg, driven by torques for a falling body, folds past its speed limit (the knee at 1.03×).
+        Released, the foot rolls off the floor as a foot does, and the landed leg carries the weight
+        (benchmarks/records/85)."""
+        if self._leg_v is None:  # the first tick: each leg's velocity indices (nv) and speed limits (rad/s)
+            vmax = np.asarray(self.robot.model.velocityLimit, dtype=float)
+            self._leg_v = {s: 6 + np.flatnonzero(leg_joints(self.robot, (s,))) for s in ("left", "right")}
+            self._leg_vmax = {s: vmax[i] for s, i in self._leg_v.items()}
+            self._trailing_hold = {"left": None, "right": None}  # the pose a sole released here is held at
+            self.trailing_releases = []
+        if self.trailing_release is None or self._next >= len(self.swings):
+            return
+        sw = self.switcher
+        for s in ("left", "right"):  # a released sole held until its swing starts (or it is set down)
+            held = self._trailing_hold[s]
+            if held is not None:
+                if sw.phase(s) != "swing" or s in self._active:
+                    self._trailing_hold[s] = None
+                else:
+                    controller.set_foot_reference(s, held, _ZERO6, _ZERO6)
+        side = self.swings[self._next][0]
+        other = "right" if side == "left" else "left"
+        down, own = sw.touchdown_time[other], sw.touchdown_time[side]
+        if self._trailing_hold[side] is not None or side in self._active or sw.phase(side) != "stance" \
+                or sw.phase(other) not in ("stance", "loading") or down is None or (own is not None and own > down):
+            return
+        ratio = float(np.max(np.abs(v[self._leg_v[side]]) / self._leg_vmax[side]))
+        if ratio < self.trailing_release:
+            return
+        sw.release(side, t)
+        M = self._data.oMf[self._fid[side]]
+        yaw = math.atan2(M.rotation[1, 0], M.rotation[0, 0])
+        held = pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, yaw), M.translation.copy())
+        self._trailing_hold[side] = held
+        controller.set_foot_reference(side, held, _ZERO6, _ZERO6)
+        self.trailing_releases.append((float(t), side, ratio))
 
     def _hurry_double_support(self, t: float, k: int, c, cd, xi: np.ndarray) -> None:
         """At the touch-down of a swing (``_landed``) and at every later tick of the double support, with timing

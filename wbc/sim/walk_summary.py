@@ -174,6 +174,9 @@ class WalkSummary:
             "recovery_step_time_s": self._t_recovery,
             "recovery_plan_failures": self.recovery_failures,
             "recovery_step_by_far_foot": self.recovery_swapped,
+            "trailing_releases": [{"t": t, "sole": side, "speed_ratio": ratio} for t, side, ratio in (
+                *self.trailing_releases, *(() if self._recovery is None else (
+                    (t + self._t_recovery, side, ratio) for t, side, ratio in self._recovery.trailing_releases)))],
             "completed": complete,
         }
         out["target_distance_m"] = out["adjusted_distance_m"] if self.adjustments else out["commanded_distance_m"]
