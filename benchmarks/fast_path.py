@@ -43,11 +43,11 @@ def timing(repeats: int, ticks: int) -> dict[str, float]:
     import wbc
     from wbc.bench.stats import limit_blas_threads
     from wbc.formulations import velocity_kernel
-    from wbc.solvers import fast
+    from wbc.solvers import active_set
 
     limit_blas_threads(1)
     t0 = time.perf_counter()
-    fast.load_fast_kernels()
+    active_set.load_active_set_kernels()
     velocity_kernel.load_kinematic_kernels()
     seconds = time.perf_counter() - t0
     print(f"numba kernel first call (compile or on-disk cache load): {seconds * 1e3:.0f} ms")

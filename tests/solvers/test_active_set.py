@@ -1,8 +1,8 @@
-"""The one Goldfarb–Idnani dual active set (:func:`wbc.solvers.active_set.dual_active_set`) on both of its
-working-set strategies — the dense range space (:class:`~wbc.solvers.active_set.DenseSpace`, through
-:func:`~wbc.solvers.active_set.solve_qp_into`) and the block-diagonal one of the inverse-dynamics QP
-(:class:`~wbc.solvers.active_set.BlockSpace`) — on the same block-structured QPs, against quadprog (via qpsolvers)
-and the KKT conditions."""
+"""The Goldfarb–Idnani dual active set (:func:`wbc.solvers.active_set.dual_active_set`, the dense range space
+:class:`~wbc.solvers.active_set.DenseSpace`) with the kinematic tick's settings (through
+:func:`~wbc.solvers.active_set.solve_qp_into`) and with the inverse-dynamics tick's (held fixed bounds, the
+workspace of :func:`~wbc.solvers.compiled_id.id_solve_buffers`), on block-structured QPs like the ID tick's, cold and
+wrongly warm-started, against quadprog (via qpsolvers) and the KKT conditions."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from conftest import dense_active_set
-from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, BlockSpace, QPLimits, QPWarmArrays,
+from conftest import dense_active_set, dense_quadprog
+from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, QPLimits, QPWarmArrays, carve_dense,
                                     dual_active_set, qp_ws_sizes, solve_qp_into)
-from wbc.solvers.compiled_id import carve_solve, id_solve_buffers
+from wbc.solvers.compiled_id import id_solve_buffers
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
 
@@ -41,12 +41,12 @@ def _block_qp(rng, nv, nf, m, p):
     return H, g, A, b, C, l, u, lb, ub
 
 
-def _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
-    """dual_active_set on a BlockSpace with the ID tick's settings, warm-started from (state, rstate), in place."""
+def _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
+    """dual_active_set with the ID tick's settings in its workspace (:func:`carve_dense` of
+    :func:`id_solve_buffers`), warm-started from (state, rstate), in place."""
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
-    (rows, Yv, S, L, tv, c, nuw, vrow, vfree, ffree, fac, a, z, npv, rb, lam_b, lam_r, ra, rc, dx, drho,
-     out) = carve_solve(*id_solve_buffers(n, nv, p, m), n, nv, p)[-1]
-    space = BlockSpace(nv, rows, Yv, S, L, vfree, ffree, vrow, fac, a, c, tv, ra, rc, dx, drho, npv, nuw, 1e-10)
+    _, fw, iw, _, _ = id_solve_buffers(n, p, m)
+    space, lam_b, lam_r, z, rb, out = carve_dense(fw, iw, n, m, p, 1e-24)
     x, nu, mu = np.zeros(n), np.zeros(max(m, 1)), np.zeros(p)
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
                          ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, z, rb, out),
@@ -55,7 +55,7 @@ def _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
 
 
 @pytest.mark.parametrize("seed", range(30))
-def test_both_strategies_give_the_exact_optimum(seed):
+def test_both_settings_give_the_exact_optimum(seed):
     rng = np.random.default_rng(7000 + seed)
     nv, nf = int(rng.integers(4, 14)), int(rng.integers(2, 14))
     m, p = int(rng.integers(0, 4)), int(rng.integers(1, 12))
@@ -67,9 +67,9 @@ def test_both_strategies_give_the_exact_optimum(seed):
                              lb=np.where(np.isfinite(lb), lb, -1e20), ub=ub, solver="quadprog")
     assert ref is not None  # x0 is feasible
     scale = max(1.0, np.abs(ref).max())
-    # block strategy: the optimum, and every KKT condition (multipliers of the held bounds from lam_b)
+    # the ID tick's settings: the optimum, and every KKT condition (multipliers of the held bounds from lam_b)
     state, rstate = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
-    it, x, nu, mu, lam_b, state, rstate = _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
+    it, x, nu, mu, lam_b, state, rstate = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
     assert it > 0, it
     assert np.abs(x - ref).max() < 1e-8 * scale
     zb = np.where(state != 0, state * lam_b, 0.0)
@@ -79,7 +79,7 @@ def test_both_strategies_give_the_exact_optimum(seed):
     assert (mu[rstate == -1] <= 1e-9).all() and (mu[rstate == 1] >= -1e-9).all() and (mu[rstate == 0] == 0).all()
     cx = C @ x
     assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all() and (x >= lb).all() and (x <= ub).all()
-    # dense strategy on the same QP: the same optimum
+    # the kinematic tick's settings on the same QP: the same optimum
     st, rst = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
     xd, nud, mud, zd, res = np.zeros(n), np.zeros(m), np.zeros(len(l)), np.zeros(n), np.zeros(1)
     itd = dense_active_set((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res),
@@ -87,10 +87,33 @@ def test_both_strategies_give_the_exact_optimum(seed):
     assert itd > 0, itd
     assert np.abs(xd - ref).max() < 1e-8 * scale
     assert np.abs(xd - x).max() < 1e-8 * scale
-    # warm-started from its own working set, the block strategy ends at once with the same x
-    it2, x2, *_ = _block_solve(H, g, A, b, C, l, u, lb, ub, nv, state.copy(), rstate.copy())
+    # warm-started from its own working set, the ID tick's solve ends at once with the same x
+    it2, x2, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state.copy(), rstate.copy())
     assert it2 == 1 and np.abs(x2 - x).max() < 1e-12 * scale
 
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_wrong_warm_start_still_ends_at_the_optimum(seed):
+    """Random bounds held at either side and random rows held (a working set of another QP): the exact optimum
+    all the same, feasible to 1e-9."""
+    rng = np.random.default_rng(9100 + seed)
+    nv, nf = int(rng.integers(4, 12)), int(rng.integers(2, 10))
+    m, p = int(rng.integers(0, 3)), int(rng.integers(1, 10))
+    H, g, A, b, C, l, u, lb, ub = _block_qp(rng, nv, nf, m, p)
+    ref = dense_quadprog(H, g, A, b, C, l, u, lb, ub)
+    state = np.zeros(nv + nf, np.int8)
+    held = (rng.random(nv + nf) < 0.3) & np.isfinite(lb)
+    state[held] = rng.choice(np.array([-1, 1], np.int8), held.sum())
+    state[lb == ub] = 1
+    rstate = np.zeros(p, np.int8)
+    rheld = (rng.random(p) < 0.3) & np.isfinite(l)
+    rstate[rheld] = -1
+    it, x, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
+    assert it > 0, it
+    assert np.abs(x - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
+    cx = C @ x
+    assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all() and (x >= lb - 1e-12).all() and (x <= ub + 1e-12).all()
 
 
 def _into(qp, fw, iw, max_iter):

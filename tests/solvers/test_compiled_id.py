@@ -33,7 +33,7 @@ def _block_qp(seed: int, nv: int = 8, nf: int = 12, m: int = 6, p: int = 10) -> 
 @pytest.mark.parametrize("seed", range(5))
 def test_the_answer_is_quadprogs_optimum(seed):
     qp = _block_qp(seed)
-    solver = CompiledIDSolver(qp.H.shape[0], 8, qp.C.shape[0], qp.A.shape[0])
+    solver = CompiledIDSolver(qp.H.shape[0], qp.C.shape[0], qp.A.shape[0])
     x, name, step = solver.solve(qp)
     xq = dense_quadprog(*qp)
     assert name == "kernel" and step == "attempt"
@@ -42,7 +42,7 @@ def test_the_answer_is_quadprogs_optimum(seed):
 
 def test_a_capped_call_raises_and_the_next_is_short_and_warm():
     qp = _block_qp(1)
-    solver = CompiledIDSolver(qp.H.shape[0], 8, qp.C.shape[0], qp.A.shape[0])
+    solver = CompiledIDSolver(qp.H.shape[0], qp.C.shape[0], qp.A.shape[0])
     solver.max_iterations = 0
     with pytest.raises(SolverError, match="kernel"):
         solver.solve(qp)

@@ -331,11 +331,11 @@ def _dynamics_section(cfg: SuiteConfig, robot) -> dict[str, object]:
 def run_suite(cfg: SuiteConfig = SuiteConfig()) -> dict[str, object]:
     """Run the sections of ``cfg`` and return the results (module docstring)."""
     from wbc.formulations import velocity_kernel
-    from wbc.solvers import fast
+    from wbc.solvers import active_set
 
     t_start = time.perf_counter()
     results: dict[str, object] = {"machine": machine_info(), "config": asdict(cfg)}
-    fast.load_fast_kernels()  # numba kernels: compiled, or loaded from the on-disk cache
+    active_set.load_active_set_kernels()  # numba kernels: compiled, or loaded from the on-disk cache
     velocity_kernel.load_kinematic_kernels()
     results["jit_first_call_s"] = time.perf_counter() - t_start
     _log(f"numba kernels first call (compile or on-disk cache load): {results['jit_first_call_s']:.2f} s")

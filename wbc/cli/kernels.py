@@ -33,8 +33,7 @@ __all__ = ["AFTER", "BUILDS", "COMMAND_MODULES", "COMPILED_TWICE", "LOADER_MODUL
 #: ``wbc walk`` loads; the longest compilations first), then the inverse-dynamics controller's and the simulation's
 #: (``wbc sim``).
 LOADER_MODULES = (
-    "wbc.solvers.active_set", "wbc.formulations.velocity_kernel", "wbc.solvers.fast",
-    "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
+    "wbc.solvers.active_set", "wbc.formulations.velocity_kernel", "wbc.tasks.frame", "wbc.configuration", "wbc.tasks.com",
     "wbc.tasks.posture", "wbc.constraints.contact", "wbc.constraints.zmp", "wbc.constraints.acceleration",
     "wbc.constraints.braking", "wbc.constraints.limits",
     "wbc.formulations.idkernel", "wbc.controllers.inverse_dynamics", "wbc.dynamics.actuator_compensation",
@@ -45,20 +44,20 @@ LOADER_MODULES = (
 
 #: The loader modules whose loaders each run command's controllers call (:func:`compile_for_command`): the kinematic
 #: controller's for ``walk`` and ``balance`` (the 11 modules whose loaders a ``wbc walk`` runs, listed by
-#: :func:`wbc.compiled.set_load_listener`, and the active-set solver, whose kernels two of them link), every module
+#: :func:`wbc.compiled.set_load_listener`, the active-set solver's first: the ``fast`` backend and the kinematic
+#: kernels link it), every module
 #: for ``sim`` (the inverse-dynamics controller on MuJoCo).
-COMMAND_MODULES = {"walk": LOADER_MODULES[:12], "balance": LOADER_MODULES[:12], "sim": LOADER_MODULES}
+COMMAND_MODULES = {"walk": LOADER_MODULES[:11], "balance": LOADER_MODULES[:11], "sim": LOADER_MODULES}
 
 #: Loader modules whose kernels call kernels that other loader modules compile (module -> those modules; a warm-up
 #: run of :data:`WARM_UP_RUNS` too, as ``"wbc sim walk --steps 2"``): ``wbc compile`` starts a module's loaders only
 #: once those modules' loaders have finished, so that the shared kernels are compiled by one process and loaded from
 #: the cache by the others (two processes compiling the same kernel do the work twice). Every loader module that
 #: imports a kernel of another loader module lists it, except the imports of :data:`COMPILED_TWICE`. The kinematic
-#: solver's kernels and the ``fast`` backend's both link the active-set kernels: these compile first, and the two
-#: modules after them side by side (a ``wbc walk``'s longest chain: active_set, then velocity_kernel).
+#: solver's kernels link the active-set kernels (as the ``fast`` backend does): these compile first (a ``wbc
+#: walk``'s longest chain: active_set, then velocity_kernel).
 AFTER = {
     "wbc.formulations.velocity_kernel": ("wbc.solvers.active_set", "wbc.tasks.frame", "wbc.constraints.limits"),
-    "wbc.solvers.fast": ("wbc.solvers.active_set",),
     "wbc.tasks.frame": ("wbc.configuration",),
     "wbc.constraints.contact": ("wbc.tasks.frame", "wbc.configuration"),
     "wbc.formulations.idkernel": ("wbc.constraints.joint_acceleration_bounds", "wbc.solvers.active_set"),

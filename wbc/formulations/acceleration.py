@@ -269,8 +269,8 @@ class InverseDynamicsQP:
         dynamics = IDDynamics(np.asfortranarray(np.eye(nv)), np.zeros(nv), self.robot.q_ref.copy(), np.zeros(nv), 0.0)
         specialise(id_assemble, self._rows.tasks, dynamics, self._rows.contacts, *self._buffers)
         if self._fast:
-            self.chain.compiled = CompiledIDSolver(self.n, nv, self._C.shape[0], self._A.shape[0])
-            specialise(id_solve, qp, nv, 100, self.chain.compiled.buffers)
+            self.chain.compiled = CompiledIDSolver(self.n, self._C.shape[0], self._A.shape[0])
+            specialise(id_solve, qp, 100, self.chain.compiled.buffers)
 
     def _layout_inequalities(self) -> None:
         r = r0 = self._r0

@@ -1,14 +1,9 @@
 """Compiled (numba) exact solver of the QP of :mod:`wbc.solvers.qp_data` (H positive definite; the first m rows of A
 are the equalities): :func:`dual_active_set`, the dual active-set method of Goldfarb & Idnani ("A numerically stable
 dual method for solving strictly convex quadratic programs", Math. Program. 27, 1983, §3; quadprog's and qpmad's),
-warm-started from the previous call's working set. The iteration is written once; the linear algebra of a working
-set is a strategy chosen by the type of the ``space`` argument (numba compiles one specialisation per type):
-
-* :class:`DenseSpace` — any positive definite H: H = L Lᵀ once per call, the working set's normals N kept through
-  Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_into` (the kinematic tick, ``FastBackend``).
-* :class:`BlockSpace` — H = blockdiag(H_vv, D), D diagonal > 0 (the inverse-dynamics QP): held bounds eliminated,
-  L Lᵀ = H_vv on the free accelerations, D⁻¹ on the free forces, the Schur complement of the working rows
-  (:mod:`wbc.solvers.active_set_block`, :func:`wbc.solvers.compiled_id.id_solve`).
+warm-started from the previous call's working set, on a :class:`DenseSpace`: H = L Lᵀ once per call, the working
+set's normals N kept through Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_into` (the kinematic
+tick, ``FastBackend``), :func:`wbc.solvers.compiled_id.id_solve` (the inverse-dynamics tick).
 
 A constraint linearly dependent on the working set only drops working constraints, which keeps the working set
 independent — the degenerate case of nearly parallel self-collision rows or a sole corner at f_z = 0. Exit codes:
@@ -21,29 +16,20 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
-from numba.extending import overload
 
 from wbc.compiled import FASTMATH, once_per_process
-from wbc.solvers.active_set_block import (block_direction, block_eqp, block_prepare, block_start, block_target,
-                                          block_update)
 from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_lower, clip_eq_residual,
                                 drop_infinite_active, forward_substitution, primal_from_multipliers, row_violation)
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["ActiveSetArrays", "ActiveSetSettings", "BlockSpace", "DenseSpace", "QPLimits", "QPWarmArrays",
+__all__ = ["ActiveSetArrays", "ActiveSetSettings", "DenseSpace", "QPLimits", "QPWarmArrays", "carve_dense",
            "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into"]
 
 #: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
 #: matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r, bw, nuw (K,); kind (0 equality, 1 row of C,
 #: 2 bound), idx, side (K,) int64: the slots; sc (1,): wᵀw; rank_tol: the dependency pivot. K = n + m + 1.
 DenseSpace = namedtuple("DenseSpace", "L Yw Sm Sf t0 y w tmp r bw nuw kind idx side sc rank_tol")
-#: workspace of the block strategy (:mod:`wbc.solvers.active_set_block`): nv; rows (w,) int64 the working rows (A[:m],
-#: then held rows of C as m + r); Yv (w, nv); S (w, w); L (nv, nv); vfree (nv,), ffree (n − nv,) int64 free
-#: variables; vrow (w,) bool; fac (3,) int64 (free accelerations factored, free forces, working rows); a, ra, dx, npv
-#: (n,); c, rc, drho, nuw (w,); tv (nv,); dep_tol: squared sine (H⁻¹ metric) below which a working row is dependent.
-#: :func:`wbc.formulations.idkernel.id_workspace` allocates it.
-BlockSpace = namedtuple("BlockSpace", "nv rows Yv S L vfree ffree vrow fac a c tv ra rc dx drho npv nuw dep_tol")
 #: the arrays and settings of :func:`dual_active_set` (its Args)
 ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
 ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
@@ -202,7 +188,7 @@ def _dense_refine(qp, sp, mw, x):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_eqp(qp, sp, mw, state, rstate, x, nu, lam_b, lam_r):
+def _dense_eqp(qp, sp, mw, x, nu, lam_b, lam_r):
     """The equality-constrained optimum on the working set (range-space method, Nocedal & Wright 2006 eq. 16.16 with
     H = L Lᵀ, Y = L⁻¹Nᵀ): S ν = −(b_W + Y L⁻¹g), x = −L⁻ᵀ (L⁻¹g + Yᵀν) (Hx + g + Nᵀν = 0); ν of the equality rows
     in nu[:m], the oriented multipliers side·ν of the working rows and bounds in lam_r, lam_b."""
@@ -245,7 +231,7 @@ def _dense_target(qp, sp, pi, pside):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
+def _dense_direction(qp, sp, mw, z, rb, rr):
     """r = S⁻¹ Y w, z = L⁻ᵀ (w − Yᵀ r) (the direction keeping W's constraints at their bounds, n_p = Nᵀr + Hz),
     the oriented r of the working rows in rr and of the bounds in rb; returns (n_p·z = wᵀw − (Yw)ᵀr, wᵀw)."""
     n = z.shape[0]
@@ -279,7 +265,7 @@ def _dense_direction(qp, sp, mw, state, rstate, pi, z, rb, rr):
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def _dense_update(qp, sp, mw, state, rstate, ci, pside):
+def _dense_update(qp, sp, mw, ci, pside):
     """Constraint ``ci`` (a bound < n, else the row ci − n) joins the working slots held at ``pside`` (its image y
     from :func:`_dense_target`), or leaves them (``pside`` 0; the last slot takes its place); refactor S. The new
     size, or DEPENDENT_EQUALITIES."""
@@ -308,29 +294,6 @@ def _dense_update(qp, sp, mw, state, rstate, ci, pside):
     if not _ws_factor(Sm, sp.Sf, mw, sp.rank_tol):
         return DEPENDENT_EQUALITIES
     return mw
-
-
-def _by_space(dense, block):
-    """A function that numba compiles, inside a caller, to ``dense`` on a :class:`DenseSpace` (its second argument)
-    and to ``block`` on a :class:`BlockSpace`: the strategy of :func:`dual_active_set`, chosen at compile time."""
-
-    def op(qp, sp, *args):
-        raise NotImplementedError("compiled only")
-
-    @overload(op, jit_options={"fastmath": FASTMATH, "nogil": True})
-    def _typed(qp, sp, *args):
-        impl = dense if sp.instance_class is DenseSpace else block
-        return lambda qp, sp, *args: impl(qp, sp, *args)
-
-    return op
-
-
-_ls_prepare = _by_space(_dense_prepare, block_prepare)
-_ls_start = _by_space(_dense_start, block_start)
-_ls_eqp = _by_space(_dense_eqp, block_eqp)
-_ls_target = _by_space(_dense_target, block_target)
-_ls_direction = _by_space(_dense_direction, block_direction)
-_ls_update = _by_space(_dense_update, block_update)
 
 
 @nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
@@ -378,7 +341,7 @@ def dual_active_set(qp, space, arrays, settings):
 
     Args:
         qp: (H (n, n), g (n,), A (≥ m, n), b (≥ m,), m, C (p, n), l, u (p,), lb, ub (n,)), ±inf for absent sides.
-        space: a :class:`DenseSpace` or :class:`BlockSpace` (then H[:nv, nv:] = 0, H[nv:, nv:] diagonal > 0).
+        space: a :class:`DenseSpace`.
         arrays: an :data:`ActiveSetArrays`:
 
             state (n,) int8, rstate (p,) int8, in/out: working set (0 out, −1 held at the lower, +1 at the upper
@@ -413,13 +376,13 @@ def dual_active_set(qp, space, arrays, settings):
             state[i] = -1
     drop_infinite_active(state, lb, ub)
     drop_infinite_active(rstate, l, u)
-    code = _ls_prepare(qp, space)
+    code = _dense_prepare(qp, space)
     if code < 0:
         return code
     steps = start_cost
     if steps > max_iter:
         return ITERATION_CAP
-    mw = _ls_start(qp, space, state, rstate)
+    mw = _dense_start(qp, space, state, rstate)
     started = False  # a constraint has been approached: a failed factorisation ends the call
     need_eqp = True
     exact = False
@@ -443,10 +406,10 @@ def dual_active_set(qp, space, arrays, settings):
                 steps += start_cost
                 if steps > max_iter:
                     return ITERATION_CAP
-                mw = _ls_start(qp, space, state, rstate)
+                mw = _dense_start(qp, space, state, rstate)
                 continue
             # x, multipliers on W; the inequality with the most negative multiplier leaves until none is
-            _ls_eqp(qp, space, mw, state, rstate, x, nu, lam_b, lam_r)
+            _dense_eqp(qp, space, mw, x, nu, lam_b, lam_r)
             worst = -dual_tol
             kw = -1
             for r in range(p):
@@ -463,7 +426,7 @@ def dual_active_set(qp, space, arrays, settings):
                     state[kw] = 0
                 else:
                     rstate[kw - n] = 0
-                mw = _ls_update(qp, space, mw, state, rstate, kw, 0)
+                mw = _dense_update(qp, space, mw, kw, 0)
                 continue
             need_eqp = False
             exact = True
@@ -480,14 +443,14 @@ def dual_active_set(qp, space, arrays, settings):
         for i in range(n):
             if state[i] != 0 and lam_b[i] < 0.0:
                 lam_b[i] = 0.0
-        _ls_target(qp, space, pi, pside)
+        _dense_target(qp, space, pi, pside)
         lam_p = 0.0
         exact = False
         while True:
             steps += 1
             if steps > max_iter:
                 return ITERATION_CAP
-            nz, q = _ls_direction(qp, space, mw, state, rstate, pi, z, rb, mu)
+            nz, q = _dense_direction(qp, space, mw, z, rb, mu)
             thr = 0.0
             if block_tol > 0.0:
                 for r in range(p):
@@ -544,11 +507,11 @@ def dual_active_set(qp, space, arrays, settings):
                 else:
                     rstate[pi - n] = pside
                     lam_r[pi - n] = lam_p
-                mw = _ls_update(qp, space, mw, state, rstate, pi, pside)
+                mw = _dense_update(qp, space, mw, pi, pside)
                 if mw < 0:
                     return mw
                 if refresh:
-                    _ls_eqp(qp, space, mw, state, rstate, x, nu, lam_b, lam_r)
+                    _dense_eqp(qp, space, mw, x, nu, lam_b, lam_r)
                     exact = True
                 break
             # partial step: the blocking constraint leaves
@@ -558,7 +521,7 @@ def dual_active_set(qp, space, arrays, settings):
             else:
                 rstate[blk - n] = 0
                 lam_r[blk - n] = 0.0
-            mw = _ls_update(qp, space, mw, state, rstate, blk, 0)
+            mw = _dense_update(qp, space, mw, blk, 0)
             if mw < 0:
                 return mw
     # outputs: the held bounds exactly, x clipped into the bounds, residuals, multipliers, the KKT check
@@ -595,6 +558,25 @@ def qp_ws_sizes(n, m, p):
     return n * n + K * n + 2 * K * K + 6 * n + 4 * K + p + 4, 3 * K
 
 
+@nb.njit(cache=True, nogil=True)
+def carve_dense(fw, iw, n, m, p, rank_tol):
+    """Disjoint views of the float64 and int64 workspaces ``fw``, ``iw`` (at least :func:`qp_ws_sizes` (n, m, p)
+    long) for :func:`dual_active_set` on a QP of n variables, m equality rows, p rows of C: (a :class:`DenseSpace`
+    of dependency pivot ``rank_tol``, lam_b (n,), lam_r (p,), z (n,), rb (n,), out (3,))."""
+    K = n + m + 1  # a working set of independent constraints has at most n members
+    # two 2-D views in all (each reshape costs a call): L, Yw, then t0, y, w, z, lam_b, rb by n columns; Sm, Sf,
+    # then tmp, r, bw, nuw by K columns
+    vn, o = carve2(fw, 0, n + K + 6, n)
+    vk, o = carve2(fw, o, 2 * K + 4, K)
+    lam_r, o = carve(fw, o, p)
+    sc, o = carve(fw, o, 1)
+    out, o = carve(fw, o, 3)
+    e, f = n + K, 2 * K
+    space = DenseSpace(vn[:n], vn[n:e], vk[:K], vk[K:f], vn[e], vn[e + 1], vn[e + 2], vk[f], vk[f + 1], vk[f + 2],
+                       vk[f + 3], iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
+    return space, vn[e + 4], lam_r, vn[e + 3], vn[e + 5], out
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def solve_qp_into(qp, arrays, limits, fw, iw):
     """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest)
@@ -619,20 +601,9 @@ def solve_qp_into(qp, arrays, limits, fw, iw):
     n = H.shape[0]
     m = A.shape[0]
     p = C.shape[0]
-    K = n + m + 1  # a working set of independent constraints has at most n members
-    # two 2-D views in all (each reshape costs a call): L, Yw, then t0, y, w, zd, lam_b, rb by n columns; Sm, Sf,
-    # then tmp, r, bw, nuw by K columns
-    vn, o = carve2(fw, 0, n + K + 6, n)
-    vk, o = carve2(fw, o, 2 * K + 4, K)
-    lam_r, o = carve(fw, o, p)
-    sc, o = carve(fw, o, 1)
-    out, o = carve(fw, o, 3)
-    e, f = n + K, 2 * K
-    space = DenseSpace(vn[:n], vn[n:e], vk[:K], vk[K:f], vn[e], vn[e + 1], vn[e + 2], vk[f], vk[f + 1], vk[f + 2],
-                       vk[f + 3], iw[:K], iw[K:2 * K], iw[2 * K:3 * K], sc, rank_tol)
-    lam_b = vn[e + 4]
+    space, lam_b, lam_r, zd, rb, out = carve_dense(fw, iw, n, m, p, rank_tol)
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, vn[e + 3], vn[e + 5], out),
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out),
                          ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
     eq_residual[0] = out[0]
     for i in range(n):

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbc.compiled import once_per_process
 from wbc.solvers.active_set import load_active_set_kernels, qp_ws_sizes, solve_qp_into
 from wbc.solvers.daqp import DaqpBackend
 
-__all__ = ["FastBackend", "load_fast_kernels"]
+__all__ = ["FastBackend"]
 
 
 class FastBackend(DaqpBackend):
@@ -49,7 +48,7 @@ class FastBackend(DaqpBackend):
         self.count_give_ups = False
         self.skip_give_ups = False
         self._gave_up: tuple | None = None  # (the tick's work, its tick, the problem's shape) of the last give-up
-        load_fast_kernels()  # compile / load the kernel here, once per process, not inside a controller's first tick
+        load_active_set_kernels()  # compile / load the kernel here, once per process, not in a controller's first tick
 
     def _kernel(self, H, g, A, b, C, l, u, lb, ub) -> bool:
         """One warm-started kernel call; True when it ended at a KKT point within ``tolerance`` (x in ``self._x``),
@@ -117,9 +116,3 @@ class FastBackend(DaqpBackend):
                 self._rstate[:] = np.where(cx >= u - 1e-12, 1, np.where(cx <= l + 1e-12, -1, 0))
         return x
 
-
-@once_per_process
-def load_fast_kernels() -> None:
-    """Compile (or load) the kernels :class:`FastBackend` calls (their modules' loaders: the same argument types),
-    once per process."""
-    load_active_set_kernels()

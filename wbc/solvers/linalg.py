@@ -15,7 +15,7 @@ from numba.extending import register_jitable
 
 from wbc.compiled import FASTMATH
 
-__all__ = ["backward_substitution", "block_cost_gradient", "cholesky_lower", "clip_entry_into", "clip_eq_residual",
+__all__ = ["backward_substitution", "cholesky_lower", "clip_entry_into", "clip_eq_residual",
            "drop_infinite_active", "equality_residual", "forward_substitution", "primal_from_multipliers",
            "row_violation", "scaled_row_violation", "weighted_normal_equations"]
 
@@ -88,19 +88,6 @@ def primal_from_multipliers(L, n, t, Y, nu, m, x):
     for a in range(n):
         x[a] = -x[a]
     backward_substitution(L, n, x)
-
-
-@nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def block_cost_gradient(H, g, x, i, nv):
-    """(H x + g)_i for a Hessian dense in its first ``nv`` rows and columns and diagonal after them
-    (H = blockdiag(H_vv, D): the inverse-dynamics QP's accelerations, then its contact forces)."""
-    s = g[i]
-    if i < nv:
-        for j in range(nv):
-            s += H[i, j] * x[j]
-    else:
-        s += H[i, i] * x[i]
-    return s
 
 
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
