@@ -4,9 +4,9 @@ set. The QP is that of :mod:`wbc.formulations.acceleration`: H = blockdiag(H_vv,
 
 The Goldfarb–Idnani dual active set (:func:`~wbc.solvers.active_set.dual_active_set` on a
 :class:`~wbc.solvers.active_set.DenseSpace`) solves it from the previous tick's working set, the bounds with lb = ub
-(the forces of an inactive contact) held from the start. The answer matches quadprog's on the same QP to ≈ 1e-11 (less along directions held by ε_a alone, κ(H_vv) ~ 1e8);
-closed-loop trajectories of two exact solvers still part, so solvers are compared tick by tick
-(``tests/formulations/test_idkernel.py``).
+(the forces of an inactive contact) held from the start. The answer matches quadprog's on the same QP to ≈ 1e-11
+(less along directions held by ε_a alone, κ(H_vv) ~ 1e8); closed-loop trajectories of two exact solvers still part,
+so solvers are compared tick by tick (``tests/formulations/test_idkernel.py``).
 """
 
 from __future__ import annotations
