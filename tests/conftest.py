@@ -282,13 +282,15 @@ def dense_quadprog(H, g, A, b, C, l, u, lb, ub) -> np.ndarray:
     return quadprog.solve_qp(H, -g, Cq, bq, A.shape[0])[0]
 
 
-def dense_active_set(qp, arrays, limits) -> int:
-    """:func:`wbc.solvers.active_set.solve_qp_into` (same qp, arrays, limits) in fresh workspaces of
+def dense_active_set(qp, arrays, max_iter, settings=None) -> int:
+    """:func:`wbc.solvers.active_set.solve_qp_into` (same qp, arrays) with the kinematic tick's settings at
+    ``max_iter`` (:func:`~wbc.solvers.active_set.kinematic_settings`), or ``settings``, in fresh workspaces of
     :func:`~wbc.solvers.active_set.qp_ws_sizes`: its return."""
-    from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
+    from wbc.solvers.active_set import kinematic_settings, qp_ws_sizes, solve_qp_into
 
     fsize, isize = qp_ws_sizes(qp[0].shape[0], qp[2].shape[0], qp[4].shape[0])
-    return solve_qp_into(qp, arrays, limits, np.empty(fsize), np.empty(isize, np.int64))
+    return solve_qp_into(qp, arrays, settings or kinematic_settings(max_iter), np.empty(fsize),
+                         np.empty(isize, np.int64))
 
 
 def highs_feasible(A, b, C, l, u, lb, ub) -> bool:

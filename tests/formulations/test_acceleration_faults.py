@@ -344,8 +344,8 @@ def test_first_tick_loads_no_kernel():
 
 
 def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
-    """Item 7 with the default solver: constructing the compiled-tick QP loads ``id_assemble`` and ``id_solve`` (one numba signature each, the
-    one a tick uses: M column-major as a DynamicsState's), and the first tick adds none. A QP with no task (contacts
+    """Item 7 with the default solver: constructing the compiled-tick QP loads ``id_assemble`` and ``solve_qp_into``
+    (the signatures a tick uses: M column-major as a DynamicsState's), and the first tick adds none. A QP with no task (contacts
     only) ticks through the kernel too, the first and a second one built in the same process (before, the empty
     task layout was never laid out and its first tick raised). Counted work (signatures), not time; oracle of the
     ticks: the equations of motion M v̇ + h = Sᵀτ + J_cᵀ f, recomputed with Pinocchio's RNEA (1e-6 N·m)."""
@@ -353,14 +353,14 @@ def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
         "import warnings; warnings.simplefilter('ignore')\n"
         "import numpy as np, pinocchio as pin, wbc\n"
         "from wbc.formulations import idkernel as k\n"
-        "from wbc.solvers import compiled_id as s\n"
+        "from wbc.solvers import active_set as s\n"
         "from wbc.dynamics import InverseDynamicsController, InverseDynamicsQP, SoleContact\n"
         "robot = wbc.load_robot('talos')\n"
         "def qp():\n"
         "    soles = [SoleContact(robot, robot.left_sole, name='l'), SoleContact(robot, robot.right_sole, name='r')]\n"
         "    return InverseDynamicsQP(robot, [], soles, solver='fast')\n"
         "first = qp()\n"
-        "before = len(k.id_assemble.signatures) + len(s.id_solve.signatures)\n"
+        "before = len(k.id_assemble.signatures) + len(s.solve_qp_into.signatures)\n"
         "for p in (first, qp()):\n"
         "    ctrl = InverseDynamicsController(p, 0.002)\n"
         "    cmd = ctrl.solve(robot.q_ref, np.zeros(robot.nv))\n"
@@ -374,7 +374,7 @@ def test_fast_solver_loads_its_kernel_at_construction_and_ticks_with_no_task():
         "        gen += J.T @ w\n"
         "    tau = np.r_[np.zeros(6), cmd.tau]\n"
         "    print(cmd.ok, cmd.path, float(np.abs(rnea - tau - gen).max()))\n"
-        "print(before, len(k.id_assemble.signatures) + len(s.id_solve.signatures))\n")
+        "print(before, len(k.id_assemble.signatures) + len(s.solve_qp_into.signatures))\n")
     out = _run_in_a_fresh_process(code)
     lines = out.stdout.split("\n")
     ticks = [line.split() for line in lines if line.startswith(("True", "False"))]

@@ -1,8 +1,8 @@
 """The Goldfarb–Idnani dual active set (:func:`wbc.solvers.active_set.dual_active_set`, the dense range space
-:class:`~wbc.solvers.active_set.DenseSpace`) with the kinematic tick's settings (through
-:func:`~wbc.solvers.active_set.solve_qp_into`) and with the inverse-dynamics tick's (held fixed bounds, the
-workspace of :func:`~wbc.solvers.compiled_id.id_solve_buffers`), on block-structured QPs like the ID tick's, cold and
-wrongly warm-started, against quadprog (via qpsolvers) and the KKT conditions."""
+:class:`~wbc.solvers.active_set.DenseSpace`) with the kinematic tick's settings (both through
+:func:`~wbc.solvers.active_set.solve_qp_into`) and with the inverse-dynamics tick's (held fixed bounds, x refreshed,
+the KKT check), on block-structured QPs like the ID tick's, cold and wrongly warm-started, against quadprog (via
+qpsolvers) and the KKT conditions."""
 
 from __future__ import annotations
 
@@ -11,9 +11,7 @@ import pytest
 import qpsolvers
 
 from conftest import dense_active_set, dense_quadprog
-from wbc.solvers.active_set import (ActiveSetArrays, ActiveSetSettings, QPLimits, QPWarmArrays, carve_dense,
-                                    dual_active_set, qp_ws_sizes, solve_qp_into)
-from wbc.solvers.compiled_id import id_solve_buffers
+from wbc.solvers.active_set import ActiveSetSettings, QPWarmArrays, kinematic_settings, qp_ws_sizes, solve_qp_into
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import ITERATION_CAP
 
@@ -41,17 +39,14 @@ def _block_qp(rng, nv, nf, m, p):
     return H, g, A, b, C, l, u, lb, ub
 
 
-def _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate):
-    """dual_active_set with the ID tick's settings in its workspace (:func:`carve_dense` of
-    :func:`id_solve_buffers`), warm-started from (state, rstate), in place."""
+def _id_solve(H, g, A, b, C, l, u, lb, ub, state, rstate):
+    """solve_qp_into with the ID tick's settings (those of ``CompiledIDSolver.settings``, written out), warm-started
+    from (state, rstate), in place: (steps, x, nu, mu, z, state, rstate)."""
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
-    _, fw, iw, _, _ = id_solve_buffers(n, p, m)
-    space, lam_b, lam_r, z, rb, out = carve_dense(fw, iw, n, m, p, 1e-24)
-    x, nu, mu = np.zeros(n), np.zeros(max(m, 1)), np.zeros(p)
-    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, z, rb, out),
-                         ActiveSetSettings(200, 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9))
-    return it, x, nu[:m], mu, lam_b, state, rstate
+    x, nu, mu, z = np.zeros(n), np.zeros(m), np.zeros(p), np.zeros(n)
+    it = dense_active_set((H, g, A, b, C, l, u, lb, ub), (state, rstate, x, nu, mu, z, np.zeros(1)), 200,
+                          ActiveSetSettings(200, 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9, 1e-24))
+    return it, x, nu, mu, z, state, rstate
 
 
 @pytest.mark.parametrize("seed", range(30))
@@ -69,26 +64,25 @@ def test_both_settings_give_the_exact_optimum(seed):
     scale = max(1.0, np.abs(ref).max())
     # the ID tick's settings: the optimum, and every KKT condition (multipliers of the held bounds from lam_b)
     state, rstate = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
-    it, x, nu, mu, lam_b, state, rstate = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
+    it, x, nu, mu, zb, state, rstate = _id_solve(H, g, A, b, C, l, u, lb, ub, state, rstate)
     assert it > 0, it
     assert np.abs(x - ref).max() < 1e-8 * scale
-    zb = np.where(state != 0, state * lam_b, 0.0)
+    assert (zb[state == 0] == 0).all()
     assert np.abs(H @ x + g + A.T @ nu + C.T @ mu + zb).max() < 1e-8 * max(1.0, np.abs(g).max())
     free_bound = (state != 0) & (lb != ub)
-    assert (lam_b[free_bound] >= -1e-9).all()
+    assert (state[free_bound] * zb[free_bound] >= -1e-9).all()
     assert (mu[rstate == -1] <= 1e-9).all() and (mu[rstate == 1] >= -1e-9).all() and (mu[rstate == 0] == 0).all()
     cx = C @ x
     assert (cx >= l - 1e-9).all() and (cx <= u + 1e-9).all() and (x >= lb).all() and (x <= ub).all()
     # the kinematic tick's settings on the same QP: the same optimum
     st, rst = np.zeros(n, np.int8), np.zeros(len(l), np.int8)
     xd, nud, mud, zd, res = np.zeros(n), np.zeros(m), np.zeros(len(l)), np.zeros(n), np.zeros(1)
-    itd = dense_active_set((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res),
-                           (200, 1e-12, 1e-12, 1e-24))
+    itd = dense_active_set((H, g, A, b, C, l, u, lb, ub), (st, rst, xd, nud, mud, zd, res), 200)
     assert itd > 0, itd
     assert np.abs(xd - ref).max() < 1e-8 * scale
     assert np.abs(xd - x).max() < 1e-8 * scale
     # warm-started from its own working set, the ID tick's solve ends at once with the same x
-    it2, x2, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state.copy(), rstate.copy())
+    it2, x2, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, state.copy(), rstate.copy())
     assert it2 == 1 and np.abs(x2 - x).max() < 1e-12 * scale
 
 
@@ -109,7 +103,7 @@ def test_a_wrong_warm_start_still_ends_at_the_optimum(seed):
     rstate = np.zeros(p, np.int8)
     rheld = (rng.random(p) < 0.3) & np.isfinite(l)
     rstate[rheld] = -1
-    it, x, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, nv, state, rstate)
+    it, x, *_ = _id_solve(H, g, A, b, C, l, u, lb, ub, state, rstate)
     assert it > 0, it
     assert np.abs(x - ref).max() < 1e-8 * max(1.0, np.abs(ref).max())
     cx = C @ x
@@ -122,7 +116,7 @@ def _into(qp, fw, iw, max_iter):
     n, m, p = H.shape[0], A.shape[0], C.shape[0]
     state, rstate = np.zeros(n, np.int8), np.zeros(p, np.int8)
     x, nu, mu, z, res = np.zeros(n), np.zeros(m), np.zeros(p), np.zeros(n), np.zeros(1)
-    it = solve_qp_into(tuple(qp), (state, rstate, x, nu, mu, z, res), (max_iter, 1e-12, 1e-12, 1e-24), fw, iw)
+    it = solve_qp_into(tuple(qp), (state, rstate, x, nu, mu, z, res), kinematic_settings(max_iter), fw, iw)
     return it, x, nu, mu, z, state, rstate, res
 
 
@@ -163,8 +157,8 @@ def test_solve_qp_into_ignores_what_its_workspace_holds(seed):
 
 
 def test_solve_qp_into_takes_its_namedtuples_as_plain_tuples():
-    """QPData, QPWarmArrays and QPLimits, or plain tuples in their order (the fast backend's per-call entry): the same
-    bits out."""
+    """QPData, QPWarmArrays and ActiveSetSettings, or plain tuples in their order (the fast backend's per-call entry):
+    the same bits out."""
     rng = np.random.default_rng(9200)
     qp = QPData(*_block_qp(rng, 8, 6, 2, 7))
     n, m, p = qp.H.shape[0], qp.A.shape[0], qp.C.shape[0]
@@ -172,9 +166,9 @@ def test_solve_qp_into_takes_its_namedtuples_as_plain_tuples():
     for named in (True, False):
         arrays = QPWarmArrays(np.zeros(n, np.int8), np.zeros(p, np.int8), np.zeros(n), np.zeros(m), np.zeros(p),
                               np.zeros(n), np.zeros(1))
-        limits = QPLimits(200, 1e-12, 1e-12, 1e-24)
-        it = dense_active_set(qp, arrays, limits) if named else dense_active_set(tuple(qp), tuple(arrays),
-                                                                                  tuple(limits))
+        settings = ActiveSetSettings(*kinematic_settings(200))
+        it = dense_active_set(qp, arrays, 0, settings) if named else dense_active_set(tuple(qp), tuple(arrays), 0,
+                                                                                       tuple(settings))
         answers.append((it, *arrays))
     assert answers[0][0] > 0
     for a, b in zip(*answers):

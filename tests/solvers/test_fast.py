@@ -35,7 +35,7 @@ def test_kernel_without_inequality_rows_is_the_exact_optimum(seed):
     no_rows = (np.zeros((0, n)), np.zeros(0), np.zeros(0))
     qp = (H, g, A, b, *no_rows, lb, ub)
     arrays = (state, np.zeros(0, np.int8), x, nu, np.zeros(0), z, np.empty(1))
-    it = dense_active_set(qp, arrays, (200, 1e-12, 1e-12, 1e-24))
+    it = dense_active_set(qp, arrays, 200)
     assert it > 0, it
     # KKT: stationarity, primal feasibility, dual sign, complementarity (thresholds set here)
     assert np.abs(H @ x + g + A.T @ nu + z).max() < 1e-9
@@ -56,7 +56,7 @@ def test_kernel_without_inequality_rows_is_the_exact_optimum(seed):
         assert np.abs(x - ref).max() < 1e-9 * max(1.0, np.abs(ref).max()), solver
     # warm start from the optimal set: one iteration, the same x
     x1 = x.copy()
-    it2 = dense_active_set(qp, arrays, (200, 1e-12, 1e-12, 1e-24))
+    it2 = dense_active_set(qp, arrays, 200)
     assert it2 == 1 and np.abs(x - x1).max() < 1e-10 * max(1.0, np.abs(x1).max())
 
 
@@ -147,7 +147,7 @@ def test_kernel_reports_infeasible_rows():
     A, b = np.zeros((0, n)), np.zeros(0)
     state, rstate = np.zeros(n, np.int8), np.zeros(2, np.int8)
     it = dense_active_set((H, g, A, b, C, l, u, lb, ub), (state, rstate, np.empty(n), np.zeros(0), np.zeros(2),
-                                                          np.zeros(n), np.zeros(1)), (100, 1e-12, 1e-12, 1e-24))
+                                                          np.zeros(n), np.zeros(1)), 100)
     assert it == INFEASIBLE
     with pytest.raises(SolverError):
         FastBackend().solve(H, g, A, b, C, l, u, lb, ub)

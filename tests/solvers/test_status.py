@@ -16,7 +16,7 @@ def _solve(H, lb, ub, row_max=np.inf):
     A, C = np.zeros((0, n)), np.eye(1, n)
     return dense_active_set((H, np.ones(n), A, np.zeros(0), C, np.array([-np.inf]), np.array([row_max]), lb, ub),
                             (np.zeros(n, np.int8), np.zeros(1, np.int8), x, np.zeros(0), np.zeros(1), z, np.zeros(1)),
-                            (50, 1e-12, 1e-12, 1e-24))
+                            50)
 
 
 def test_codes_are_distinct_and_negative():

@@ -72,12 +72,10 @@ class CompiledTick:
                         plan.box = self._kernel_box(config, float(dt))
         finally:
             self.tasks[:], self.constraints[:] = saved[0], saved[1]
+            self._layout_ok = False
             if saved[4] is not None and saved[3]:
-                self._layout_ok = False
                 self._update_layout()  # back to the controller's layout (kept: no build)
                 self._update_soft_layout()
-            else:
-                self._layout_ok = False
             self._eq_rows = saved[2]
 
     def _fused_plan(self) -> FusedPlan | None:
@@ -146,7 +144,7 @@ class CompiledTick:
         if box is None:  # the plan's first tick
             box = plan.box = self._kernel_box(config, dt)
         # the cost (and the box, when the kernel writes it) are formed by the kernel below
-        H, g, A, b, C, l, u, lb, ub = self._assemble(config, dt, False, box.const.shape[0] == 0)
+        H, g, A, b, C, l, u, lb, ub = self.assemble(config, dt, False, box.const.shape[0] == 0)
         if self._eq_rows is None:
             self._eq_rows = independent_rows(A, self.rank_rtol)
         if self._eq_rows.size != A.shape[0]:

@@ -53,7 +53,7 @@ from wbc.formulations.reference import AccelerationReference
 from wbc.exceptions import InvalidInputError, SolverError
 from wbc.solvers import DaqpBackend, QPBackend, make_backend
 from wbc.solvers.base import POLISH_RANGE
-from wbc.solvers.compiled_id import CompiledIDSolver, id_solve
+from wbc.solvers.compiled_id import CompiledIDSolver
 from wbc.solvers.diagnosis import diagnose
 from wbc.solvers.fallback import DAQP_SETTINGS, SCALED_EPS_PROX, FallbackChain
 from wbc.solvers.qp_data import QPData
@@ -270,7 +270,7 @@ class InverseDynamicsQP:
         specialise(id_assemble, self._rows.tasks, dynamics, self._rows.contacts, *self._buffers)
         if self._fast:
             self.chain.compiled = CompiledIDSolver(self.n, self._C.shape[0], self._A.shape[0])
-            specialise(id_solve, qp, 100, self.chain.compiled.buffers)
+            self.chain.compiled.load(qp)
 
     def _layout_inequalities(self) -> None:
         r = r0 = self._r0

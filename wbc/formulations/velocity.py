@@ -146,15 +146,12 @@ class VelocityQP:
         while len(self._soft_layouts) > 16:
             self._soft_layouts.pop(next(iter(self._soft_layouts)))
 
-    def assemble(self, config: Configuration, dt: float) -> QPData:
+    def assemble(self, config: Configuration, dt: float, form_cost: bool = True, boxes: bool = True) -> QPData:
         """Build the QP at ``config`` over a tick of ``dt`` seconds (module docstring): the one assembly that every
         route solves. Returns :class:`~wbc.solvers.qp_data.QPData` (H (nv, nv), g (nv,), A, b, C, l, u, lb, ub (nv,)):
-        views of the controller's buffers, overwritten at the next call."""
-        return self._assemble(config, dt, True)
-
-    def _assemble(self, config: Configuration, dt: float, form_cost: bool, boxes: bool = True) -> QPData:
-        """:meth:`assemble` (the posture's q ⊖ q* and gain kept in ``_posture_diff``, ``_posture_gain``); with
-        ``form_cost`` False, H and g are left to the compiled tick, with ``boxes`` False lb and ub too."""
+        views of the controller's buffers, overwritten at the next call. The posture's q ⊖ q* and gain are kept in
+        ``_posture_diff``, ``_posture_gain``; ``form_cost`` False leaves H and g to the compiled tick, ``boxes``
+        False lb and ub too."""
         self._update_layout()
         self._update_soft_layout()
         H, g, A, b, C, l, u, lb, ub = self._qp

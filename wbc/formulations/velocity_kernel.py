@@ -14,7 +14,7 @@ import numpy as np
 from wbc.compiled import FASTMATH, NO_NRT, once_per_process
 from wbc.constraints.limits import intersect_position_bounds
 from wbc.lie import placement_log6_into, rotation_gap, translation_gap
-from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
+from wbc.solvers.active_set import kinematic_settings, qp_ws_sizes, solve_qp_into
 from wbc.solvers.linalg import carve, carve2, equality_residual, row_violation
 from wbc.solvers.qp_data import QPData
 from wbc.solvers.status import NOT_REDUCIBLE, RESIDUAL
@@ -176,12 +176,6 @@ def form_qp(sfb, sib, diff, pgain, damping, H, g):
     return check
 
 
-@nb.njit(cache=True, nogil=True)
-def _views_size(n, nr, mr, p):
-    """Length of the float workspace that :func:`_solve_views` lays out."""
-    return n + nr * nr + 5 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + p * nr + 3 * p + mr * nr + 2 * mr + 1
-
-
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
 def _solve_views(qp, er, ws):
     """Views of :func:`kinematic_solve`'s float workspace ``ws``: the reduced QP (a plain tuple in
@@ -296,7 +290,7 @@ def kinematic_solve(qp, er, dt, tolerance, max_iter, state, rstate, ws, iws, v):
         lr[r] = l[r] - shift
         ur[r] = u[r] - shift
     # plain tuples, the types of the fast backend's call: one compiled version of solve_qp_into
-    it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), (max_iter, 1e-12, 1e-12, 1e-24), qpws, iws)
+    it = solve_qp_into(red, (state, rstate, x, nu, mu, z, eqres), kinematic_settings(max_iter), qpws, iws)
     if it >= 1 and not _finish(qp, Tc, x, n0, dt, tolerance, ws, v):
         it = RESIDUAL
     if it < 1:
@@ -344,7 +338,9 @@ def kinematic_pack(nv: int, n_eq: int, n_in: int, er: int) -> tuple[np.ndarray, 
     through the equality rows from ``er`` (−1: none): the QP's buffers and :func:`kinematic_solve`'s workspaces."""
     nr, mr = (nv - 6, n_eq - 6) if er >= 0 else (nv, n_eq)
     fsize, isize = qp_ws_sizes(nr, mr, n_in)
-    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + _views_size(nv, nr, mr, n_in) + fsize)
+    # the float workspace that _solve_views lays out
+    views = nv + nr * nr + 5 * nr + 6 * (nr + 1) + 36 + 6 * nr + 6 + n_in * nr + 3 * n_in + mr * nr + 2 * mr + 1
+    fb = np.zeros(nv * (nv + n_eq + n_in + 3) + n_eq + 2 * n_in + views + fsize)
     ib = np.zeros(4 + isize, np.int64)
     ib[:4] = (nv, n_eq, n_in, er)
     return fb, ib

@@ -2,8 +2,9 @@
 are the equalities): :func:`dual_active_set`, the dual active-set method of Goldfarb & Idnani ("A numerically stable
 dual method for solving strictly convex quadratic programs", Math. Program. 27, 1983, §3; quadprog's and qpmad's),
 warm-started from the previous call's working set, on a :class:`DenseSpace`: H = L Lᵀ once per call, the working
-set's normals N kept through Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_into` (the kinematic
-tick, ``FastBackend``), :func:`wbc.solvers.compiled_id.id_solve` (the inverse-dynamics tick).
+set's normals N kept through Y = L⁻¹Nᵀ and the Cholesky factor of S = Y Yᵀ. :func:`solve_qp_into` runs it for the
+kinematic tick (``FastBackend``, :func:`kinematic_settings`) and the inverse-dynamics tick
+(:class:`~wbc.solvers.compiled_id.CompiledIDSolver`), in the caller's workspaces.
 
 A constraint linearly dependent on the working set only drops working constraints, which keeps the working set
 independent — the degenerate case of nearly parallel self-collision rows or a sole corner at f_z = 0. Exit codes:
@@ -23,8 +24,8 @@ from wbc.solvers.linalg import (backward_substitution, carve, carve2, cholesky_l
 from wbc.solvers.status import (DEPENDENT_EQUALITIES, INFEASIBLE, ITERATION_CAP, NOT_POSITIVE_DEFINITE,
                                 NOT_VERIFIED)
 
-__all__ = ["ActiveSetArrays", "ActiveSetSettings", "DenseSpace", "QPLimits", "QPWarmArrays", "carve_dense",
-           "dual_active_set", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into"]
+__all__ = ["ActiveSetArrays", "ActiveSetSettings", "DenseSpace", "QPWarmArrays", "carve_dense", "dual_active_set",
+           "kinematic_settings", "load_active_set_kernels", "qp_ws_sizes", "solve_qp_into"]
 
 #: workspace of the dense strategy: L (n, n) factor of H; Yw (K, n) = L⁻¹Nᵀ by working slot; Sm, Sf (K, K) Gram
 #: matrix and its factor; t0 = L⁻¹g, y = L⁻¹a_p, w = ±y (n,); tmp, r, bw, nuw (K,); kind (0 equality, 1 row of C,
@@ -33,11 +34,10 @@ DenseSpace = namedtuple("DenseSpace", "L Yw Sm Sf t0 y w tmp r bw nuw kind idx s
 #: the arrays and settings of :func:`dual_active_set` (its Args)
 ActiveSetArrays = namedtuple("ActiveSetArrays", "state rstate x nu mu lam_b lam_r z rb out")
 ActiveSetSettings = namedtuple("ActiveSetSettings", "max_iter primal_tol dual_tol dep_tol block_tol hold_fixed "
-                                                    "refresh start_cost verify_tol")
-#: the arrays and limits of :func:`solve_qp_into` (its Args); a plain tuple in their order is
-#: taken as well (numba types it faster than a namedtuple: the ``fast`` backend passes one)
+                                                    "refresh start_cost verify_tol rank_tol")
+#: the arrays of :func:`solve_qp_into` (its Args); it takes plain tuples in the namedtuples' order as well (numba types
+#: them faster than a namedtuple: the ``fast`` backend and the ID solver pass them)
 QPWarmArrays = namedtuple("QPWarmArrays", "state rstate x nu mu z eq_residual")
-QPLimits = namedtuple("QPLimits", "max_iter primal_tol dual_tol rank_tol")
 #: negative working multiplier, relative to the largest (at least 1), that fails :func:`dual_active_set`'s KKT check
 DUAL_CHECK_TOL = 1e-9
 #: largest residual of a working row (its units) that the dense strategy's equality-constrained optimum keeps without
@@ -357,7 +357,8 @@ def dual_active_set(qp, space, arrays, settings):
             start). primal_tol: violation that makes a constraint enter. dual_tol: negative multiplier that makes
             one leave at a start. dep_tol: dependency test. block_tol: relative r below which a working constraint
             does not block. hold_fixed: variables with lb = ub are held from the start and never leave.
-            refresh: see above. verify_tol: largest residual of the final check (inf: not checked).
+            refresh: see above. verify_tol: largest residual of the final check (inf: not checked). rank_tol: not
+            read here (the ``space``'s dependency pivot, :func:`carve_dense`).
 
     Returns:
         steps (≥ 1), or NOT_POSITIVE_DEFINITE / DEPENDENT_EQUALITIES (a dependent working set) / ITERATION_CAP /
@@ -365,7 +366,7 @@ def dual_active_set(qp, space, arrays, settings):
     """
     H, g, A, b, m, C, l, u, lb, ub = qp
     state, rstate, x, nu, mu, lam_b, lam_r, z, rb, out = arrays
-    max_iter, primal_tol, dual_tol, dep_tol, block_tol, hold_fixed, refresh, start_cost, verify_tol = settings
+    max_iter, primal_tol, dual_tol, dep_tol, block_tol, hold_fixed, refresh, start_cost, verify_tol, _ = settings
     n = H.shape[0]
     p = C.shape[0]
     out[0] = np.inf  # an exit before the final check reports no residual, not the workspace's last one
@@ -577,19 +578,27 @@ def carve_dense(fw, iw, n, m, p, rank_tol):
     return space, vn[e + 4], lam_r, vn[e + 3], vn[e + 5], out
 
 
+@nb.njit(cache=True, nogil=True)
+def kinematic_settings(max_iter):
+    """The kinematic tick's :data:`ActiveSetSettings`, a plain tuple: ``max_iter`` (drops and GI steps), primal and
+    dual tolerance 1e-12, dependency test 1e-10, blocking r above 1e-9 of the largest, no held bounds, no refresh, no
+    final check, dependency pivot of S² 1e-24."""
+    return (max_iter, 1e-12, 1e-12, 1e-10, 1e-9, False, False, 0, np.inf, 1e-24)
+
+
 @nb.njit(cache=True, fastmath=FASTMATH, nogil=True)
-def solve_qp_into(qp, arrays, limits, fw, iw):
-    """:func:`dual_active_set` on a :class:`DenseSpace` (dependency test 1e-10, blocking r above 1e-9 of the largest)
-    in the caller's workspaces: no allocation (a kernel compiled without numba's runtime may call it).
+def solve_qp_into(qp, arrays, settings, fw, iw):
+    """:func:`dual_active_set` on a :class:`DenseSpace` in the caller's workspaces: no allocation (a kernel compiled
+    without numba's runtime may call it).
 
     Args:
         qp: a :class:`~wbc.solvers.qp_data.QPData` (n variables, m equality rows, p rows of C).
         arrays: a :data:`QPWarmArrays`: state (n,), rstate (p,) int8, in/out: working set (0 out, −1 lower, +1 upper
-            side), read as the warm start; out: x (n,), nu (m,), mu (p,), z (n,) (H x + g + Aᵀnu + Cᵀmu + z = 0;
+            side), read as the warm start; out: x (n,), nu (≥ m,), mu (p,), z (n,) (H x + g + Aᵀnu + Cᵀmu + z = 0;
             mu, z ≤ 0 at a lower side, ≥ 0 at an upper one), eq_residual (1,): largest row residual (inf after an
             exit code other than NOT_VERIFIED).
-        limits: a :data:`QPLimits`: max_iter (drops and GI steps), primal_tol, dual_tol, rank_tol (relative pivot of
-            S² below which W counts as dependent).
+        settings: an :data:`ActiveSetSettings` (:func:`kinematic_settings`, or the ID tick's of
+            :class:`~wbc.solvers.compiled_id.CompiledIDSolver`).
         fw, iw: float64 and int64 workspaces, at least :func:`qp_ws_sizes` (n, m, p) long.
 
     Returns:
@@ -597,14 +606,10 @@ def solve_qp_into(qp, arrays, limits, fw, iw):
     """
     H, g, A, b, C, l, u, lb, ub = qp
     state, rstate, x, nu, mu, z, eq_residual = arrays
-    max_iter, primal_tol, dual_tol, rank_tol = limits
-    n = H.shape[0]
-    m = A.shape[0]
-    p = C.shape[0]
-    space, lam_b, lam_r, zd, rb, out = carve_dense(fw, iw, n, m, p, rank_tol)
+    n, m, p = H.shape[0], A.shape[0], C.shape[0]
+    space, lam_b, lam_r, zd, rb, out = carve_dense(fw, iw, n, m, p, settings[9])
     it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out),
-                         ActiveSetSettings(max_iter, primal_tol, dual_tol, 1e-10, 1e-9, False, False, 0, np.inf))
+                         ActiveSetArrays(state, rstate, x, nu, mu, lam_b, lam_r, zd, rb, out), settings)
     eq_residual[0] = out[0]
     for i in range(n):
         z[i] = state[i] * lam_b[i] if state[i] != 0 else 0.0
@@ -621,4 +626,4 @@ def load_active_set_kernels() -> None:
                    -np.ones(n), np.ones(n)),
                   (np.zeros(n, np.int8), np.zeros(p, np.int8), np.empty(n), np.empty(m), np.empty(p), np.empty(n),
                    np.empty(1)),
-                  (10, 1e-12, 1e-12, 1e-24), np.empty(fsize), np.empty(isize, np.int64))
+                  kinematic_settings(10), np.empty(fsize), np.empty(isize, np.int64))

@@ -11,34 +11,17 @@ so solvers are compared tick by tick (``tests/formulations/test_idkernel.py``).
 
 from __future__ import annotations
 
-from collections import namedtuple
-
-import numba as nb
 import numpy as np
 
-from wbc.compiled import CHECK_TYPES, FASTMATH, specialise
+from wbc.compiled import CHECK_TYPES, specialise
 from wbc.exceptions import SolverError
-from wbc.solvers.active_set import ActiveSetArrays, ActiveSetSettings, carve_dense, dual_active_set, qp_ws_sizes
+from wbc.solvers.active_set import qp_ws_sizes, solve_qp_into
 from wbc.solvers.qp_data import QPData, QPSolution
 from wbc.solvers.status import SolverStatus
 
-__all__ = ["CompiledIDSolver", "IDSolveBuffers", "KERNEL_ITERATION_COST",
-           "KERNEL_ITERATIONS_AFTER_GIVE_UP", "id_solve", "kernel_iterations"]
+__all__ = ["CompiledIDSolver", "KERNEL_ITERATION_COST", "KERNEL_ITERATIONS_AFTER_GIVE_UP", "kernel_iterations"]
 
-#: the buffers of :func:`id_solve` (:func:`id_solve_buffers`)
-IDSolveBuffers = namedtuple("IDSolveBuffers", "ws_s ws_f ws_i mult out")
-
-#: squared sine (in the H⁻¹ metric) between a constraint and the span of the working set below which it counts as
-#: dependent on it (the ID tick's :func:`~wbc.solvers.active_set.dual_active_set`)
-DEPENDENCE_TOL = 1e-10
-#: relative pivot of S² below which the working set counts as dependent (the kinematic tick's too)
-PIVOT_TOL = 1e-24
-#: violation (constraint units: m/s², N, N·m) beyond which a bound or row enters the working set (the same solve)
-PRIMAL_TOL = 1e-11
-#: largest constraint violation (m/s², N, N·m) of the solve's final KKT check (the same solve)
-VERIFY_TOL = 1e-9
-
-#: CPU time (s) of one working-set iteration of :func:`id_solve` with its share of the set-up (benchmarks/README.md,
+#: CPU time (s) of one working-set iteration of the ID solve with its share of the set-up (benchmarks/README.md,
 #: "One active set for both QP levels"; :func:`kernel_iterations`)
 KERNEL_ITERATION_COST = 2.5e-5
 
@@ -56,35 +39,9 @@ def kernel_iterations(budget: float) -> int:
     return int(min(100, max(4, budget / (4.0 * KERNEL_ITERATION_COST))))
 
 
-def id_solve_buffers(n: int, p: int, me: int) -> tuple[np.ndarray, ...]:
-    """The five zeroed buffers of :func:`id_solve` (:data:`IDSolveBuffers`) for n variables, p inequality rows and up
-    to ``me`` equality rows: ``ws_s`` int8 (n + p,) the working set (state, rstate); ``ws_f`` float64, ``ws_i`` int64
-    the workspaces of :func:`~wbc.solvers.active_set.carve_dense`; ``mult`` float64 (me + p,) ν then μ; ``out``
-    float64 (1 + n,) the residual, then x."""
-    fsize, isize = qp_ws_sizes(n, me, p)
-    return (np.zeros(n + p, np.int8), np.zeros(fsize), np.zeros(isize, np.int64), np.zeros(me + p), np.zeros(1 + n))
-
-
-@nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
-def id_solve(qp, max_iter, buffers):
-    """The exact optimum of the ID QP ``qp`` (H, g, A, b, C, l, u, lb, ub) into ``buffers`` (:data:`IDSolveBuffers`:
-    x, the residual, the working set read as warm start and written), by the module docstring's dual active set
-    capped at ``max_iter`` iterations. Returns the iterations or a negative
-    :class:`~wbc.solvers.status.SolverStatus` code."""
-    H, g, A, b, C, l, u, lb, ub = qp
-    ws_s, ws_f, ws_i, mult, out = buffers
-    n, m, p = H.shape[0], A.shape[0], C.shape[0]
-    space, lam_b, lam_r, z, rb, wout = carve_dense(ws_f, ws_i, n, m, p, PIVOT_TOL)
-    it = dual_active_set((H, g, A, b, m, C, l, u, lb, ub), space,
-                         ActiveSetArrays(ws_s[:n], ws_s[n:], out[1:], mult[:mult.size - p], mult[mult.size - p:],
-                                         lam_b, lam_r, z, rb, wout),
-                         ActiveSetSettings(max_iter, PRIMAL_TOL, 0.0, DEPENDENCE_TOL, 0.0, True, True, 1, VERIFY_TOL))
-    out[0] = wout[0]
-    return it
-
-
 class CompiledIDSolver:
-    """:func:`id_solve` behind the solver protocol: ``solve(QPData) → QPSolution``.
+    """:func:`~wbc.solvers.active_set.solve_qp_into` with the ID tick's :meth:`settings` behind the solver protocol:
+    ``solve(QPData) → QPSolution``.
 
     Args:
         n, p: variables, inequality rows. me: the most equality rows a QP has.
@@ -99,18 +56,33 @@ class CompiledIDSolver:
     name = "kernel"
 
     def __init__(self, n: int, p: int, me: int):
-        self.buffers = IDSolveBuffers(*id_solve_buffers(n, p, me))
-        self.state, self.rstate = self.buffers.ws_s[:n], self.buffers.ws_s[n:]
-        self.residual, self.x = self.buffers.out[:1], self.buffers.out[1:]
+        fsize, isize = qp_ws_sizes(n, me, p)
+        self.state, self.rstate = np.zeros(n, np.int8), np.zeros(p, np.int8)
+        self.x, self.residual = np.zeros(n), np.zeros(1)
+        self._arrays = (self.state, self.rstate, self.x, np.zeros(me), np.zeros(p), np.zeros(n), self.residual)
+        self._work = (np.zeros(fsize), np.zeros(isize, np.int64))
         self.max_iterations = 100
         self.tolerance = 1e-6
         self.solves = 0
         self.fallbacks = 0
         self.gave_up = False
         self.cap = self.max_iterations  # the last call's iteration cap
-        self._entry = None  # id_solve specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
+        self._entry = None  # solve_qp_into specialised to C-contiguous float64 arrays (wbc.compiled.specialise)
         self._solution = QPSolution(self.x, self.name)  # every answer: x is this view of the buffer
-        self._checked: tuple = (None, False)  # (the last QPData, its arrays all C-contiguous)
+        self._checked: tuple = (None, (), False)  # (the last QPData, as a plain tuple, its arrays all C-contiguous)
+
+    def settings(self, cap: int) -> tuple:
+        """The ID tick's :data:`~wbc.solvers.active_set.ActiveSetSettings` at an iteration cap of ``cap``, a plain
+        tuple: a bound or row enters the working set when violated by more than 1e-11 (m/s², N, N·m); a constraint
+        counts as dependent on the working set below a squared sine of 1e-10 in the H⁻¹ metric; the bounds with
+        lb = ub are held; x is refreshed after each full step; the final KKT check allows 1e-9; the pivot of S² below
+        which the working set counts as dependent is 1e-24 (the kinematic tick's)."""
+        return (int(cap), 1e-11, 0.0, 1e-10, 0.0, True, True, 1, 1e-9, 1e-24)
+
+    def load(self, qp: QPData) -> None:
+        """Compile (or load) the solve for the types of ``qp`` (C-contiguous arrays: the formulation's buffers) now,
+        not in a controller's first tick."""
+        self._entry = specialise(solve_qp_into, tuple(qp), self._arrays, self.settings(1), *self._work)
 
     def solve(self, qp: QPData) -> QPSolution:
         """The exact optimum of ``qp`` (x a view of this solver's buffer, overwritten by the next call).
@@ -121,13 +93,11 @@ class CompiledIDSolver:
         self.cap = min(self.max_iterations, KERNEL_ITERATIONS_AFTER_GIVE_UP) if self.gave_up else self.max_iterations
         self.gave_up = False
         if qp is not self._checked[0]:  # the formulation hands over the same QPData of views tick after tick
-            self._checked = (qp, not CHECK_TYPES and all(a.flags.c_contiguous for a in qp))
-        if self._checked[1]:
-            if self._entry is None:
-                self._entry = specialise(id_solve, qp, self.cap, self.buffers)
-            it = self._entry(qp, self.cap, self.buffers)
-        else:
-            it = id_solve(qp, self.cap, self.buffers)
+            self._checked = (qp, tuple(qp), not CHECK_TYPES and all(a.flags.c_contiguous for a in qp))
+        if self._checked[2] and self._entry is None:
+            self.load(qp)
+        entry = self._entry if self._checked[2] else solve_qp_into
+        it = entry(self._checked[1], self._arrays, self.settings(self.cap), *self._work)
         if it > 0 and self.residual[0] <= self.tolerance:
             return self._solution
         raise SolverError(self.status_text(it, self.residual[0]))

@@ -30,11 +30,9 @@ from wbc.solvers.qp_data import QPData
 __all__ = ["band_rows", "solve_lexicographic", "independent_rows"]
 
 
-#: results kept in ``_RANK_MEMO``
-RANK_MEMO_SIZE = 6
 #: the last results of :func:`independent_rows` ((A copied, rtol, rows) newest last): a cascade and the re-solves of
 #: its tick (contact corrections, trust regions: only b or the box change) ask the same matrices again
-_RANK_MEMO: deque = deque(maxlen=RANK_MEMO_SIZE)
+_RANK_MEMO: deque = deque(maxlen=6)
 #: dgeqp3's workspace size per shape of Aᵀ (:func:`independent_rows`)
 _QP3_LWORK: dict[tuple, int] = {}
 #: ``memo`` key of :func:`solve_lexicographic` under which it keeps the equality rows of the last cascade that needed
@@ -44,7 +42,7 @@ BAND_KEY = "band"
 
 def independent_rows(A: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
     """Indices of a maximal linearly independent subset of the rows of A (QR with column pivoting of Aᵀ;
-    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only. The last :data:`RANK_MEMO_SIZE`
+    numerical rank: |R_ii| > rtol · max(|R_00|, 1)); (k,) int, sorted, read-only. The last 6
     results are kept: a matrix equal to one of them (same ``rtol``) returns it without a new factorisation."""
     if A.shape[0] == 0:
         return np.zeros(0, dtype=int)
