@@ -79,25 +79,36 @@ def log_uniform(rng, lo, hi):
     return float(10 ** rng.uniform(np.log10(lo), np.log10(hi)))
 
 
-def build_episode(robot, rng, solver, clock_guard=False):
+def draw_episode(robot, rng) -> dict:
+    """An episode's random draws (gains, limits, start state, CoM target), in their fixed order: the same rng state
+    gives the same episode, which :func:`build_episode` builds. A replay draws the episodes before its own without
+    building them."""
     gains = {"com_kp": log_uniform(rng, 1, 1e4), "com_weight": log_uniform(rng, 1, 1e4),
              "torso_kp": log_uniform(rng, 1, 1e3), "posture_kp": log_uniform(rng, 1, 1e3),
              "posture_weight": log_uniform(rng, 1e-2, 10), "contact_kd": float(rng.uniform(0, 100))}
     gains["com_kd"] = 2 * np.sqrt(gains["com_kp"]) * rng.uniform(0.2, 2)
-    scale = float(rng.uniform(0.2, 1.0))
-    ctrl = IDBalanceController(robot, dt=DT, solver=solver, mu=log_uniform(rng, 0.05, 1.5),
-                               f_min=float(rng.choice([0.0, 1.0, 10.0, 30.0])), gains=gains,
-                               torque_limit_scale=scale)
-    ctrl.controller.clock_guard = clock_guard
+    d = {"gains": gains, "scale": float(rng.uniform(0.2, 1.0)), "mu": log_uniform(rng, 0.05, 1.5),
+         "f_min": float(rng.choice([0.0, 1.0, 10.0, 30.0]))}
     q = random_configuration(robot, rng, spread=float(rng.uniform(0, 0.3)))
     if rng.random() < 0.7:
         q[:7] = robot.q_ref[:7]
     v = np.zeros(robot.nv)
     v[6:] = rng.normal(size=robot.nv - 6) * rng.uniform(0, 1.0)
-    ctrl.reset(q, v)
-    ctrl.set_com_reference(ctrl.com_ref + rng.normal(size=3) * rng.choice([0.01, 0.05, 0.3]),
-                           acceleration=rng.normal(size=3) * rng.choice([0.0, 1.0, 5.0]))
-    return ctrl, q, v, scale
+    d["q"], d["v"] = q, v
+    d["com_offset"] = rng.normal(size=3) * rng.choice([0.01, 0.05, 0.3])
+    d["com_acceleration"] = rng.normal(size=3) * rng.choice([0.0, 1.0, 5.0])
+    return d
+
+
+def build_episode(robot, draws, solver, clock_guard=False):
+    """The controller, q, v and torque-limit scale of the episode ``draws`` (:func:`draw_episode`)."""
+    d = draws
+    ctrl = IDBalanceController(robot, dt=DT, solver=solver, mu=d["mu"], f_min=d["f_min"], gains=d["gains"],
+                               torque_limit_scale=d["scale"])
+    ctrl.controller.clock_guard = clock_guard
+    ctrl.reset(d["q"], d["v"])
+    ctrl.set_com_reference(ctrl.com_ref + d["com_offset"], acceleration=d["com_acceleration"])
+    return ctrl, d["q"], d["v"], d["scale"]
 
 
 def corner_map(contact) -> np.ndarray:
@@ -190,26 +201,29 @@ def run_chunk(ticks: int, seed: int, progress: str = "", solver: str = "fast", e
         robot = robots[name]
         ep = c["episodes"]
         c["episodes"] += 1
+        draws = draw_episode(robot, rng)
+        skip = replay is not None and ep != replay  # drawn, not built: the rng moves on as in the run
         try:
-            ctrl, q, v, scale = build_episode(robot, rng, solver, clock_guard)
-            freeze_after_first((name, solver))
-            collect_between_episodes()
+            if not skip:
+                ctrl, q, v, scale = build_episode(robot, draws, solver, clock_guard)
+                freeze_after_first((name, solver))
+                collect_between_episodes()
         except Exception as exc:  # noqa: BLE001
             c["exceptions"] += 1
             event("exceptions", ep, -1, f"build {type(exc).__name__}: {exc}")
             continue
-        data = robot.model.createData()
-        effort = np.asarray(robot.model.effortLimit[6:]) * scale  # the URDF effort times the episode's scale
-        f_min = ctrl.contacts["left"].f_min
-        bounds = {s: (f_min, np.inf, ctrl.contacts[s].mu) for s in SIDES}
         ramp_side = str(rng.choice(SIDES)) if rng.random() < 0.5 else None
         ramp_start, ramp_len = int(rng.integers(0, episode // 2)), int(rng.integers(1, 25))
         f0 = robot.mass * 9.81 * rng.uniform(0.3, 1.2)
         mu_tick = int(rng.integers(0, episode)) if rng.random() < 0.3 else -1
         mu_side, mu_new = str(rng.choice(SIDES)), log_uniform(rng, 0.02, 1.5)  # drawn up front: replayable
-        if replay is not None and ep != replay:
+        if skip:
             c["ticks"] += episode
             continue
+        data = robot.model.createData()
+        effort = np.asarray(robot.model.effortLimit[6:]) * scale  # the URDF effort times the episode's scale
+        f_min = ctrl.contacts["left"].f_min
+        bounds = {s: (f_min, np.inf, ctrl.contacts[s].mu) for s in SIDES}
         c["ramps"] += int(ramp_side is not None)
         run = 0  # fallback ticks in a row on a full QP HiGHS finds feasible
         for tick in range(episode):
