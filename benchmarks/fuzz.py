@@ -121,30 +121,39 @@ def push_past_limits(robot, config, rng) -> None:
     config.update(q)
 
 
-def build_episode(robot, name, rng, kind, strict, past_limits=False):
+def build_episode(robot, name, rng, kind, strict, past_limits=False, build=True):
+    """An episode's configuration and controller from ``rng``, its draws made in a fixed order. With ``build`` False,
+    the same draws are made but nothing is built, and it returns (None, None): a replay draws the episodes before
+    its own this way."""
     config = Configuration(robot, random_configuration(robot, rng, spread=0.2) if rng.random() < 0.5 else None)
     config.q[:7] = robot.q_ref[:7]
     config.update(config.q)
     if past_limits:
         push_past_limits(robot, config, rng)
+    com_gain, com_weight = float(10 ** rng.uniform(0, 6)), float(10 ** rng.uniform(-2, 3))  # CoM gain up to 1e6
+    sole_gains = [float(10 ** rng.uniform(0, 3)) for _ in range(2)]  # drift correction 1..1000 1/s (capped at 1/dt)
+    hand_gain, hand_weight = float(10 ** rng.uniform(-1, 4)), float(10 ** rng.uniform(-3, 3))
+    d = rng.normal(size=3)
+    com_shift = rng.uniform(-0.05, 0.05, 3) * (20 if kind != "reachable" else 1)
+    # strict: the posture's weight, and whether the CoM task moves up to the top level (above the hand)
+    posture_weight, com_on_top = (float(10 ** rng.uniform(-2, 1)), rng.random() < 0.5) if strict else (0.0, False)
+    if not build:
+        return None, None
     ctrl, com = standing_controller(robot, config)
-    ctrl.tasks[0].gain = float(10 ** rng.uniform(0, 6))  # CoM gain up to 1e6
-    ctrl.tasks[0].weight = float(10 ** rng.uniform(-2, 3))
-    for contact in ctrl.constraints[:2]:
-        contact.gain = float(10 ** rng.uniform(0, 3))  # drift-correction gain 1..1000 1/s (capped at 1/dt)
+    ctrl.tasks[0].gain, ctrl.tasks[0].weight = com_gain, com_weight
+    for contact, gain in zip(ctrl.constraints[:2], sole_gains, strict=True):
+        contact.gain = gain
     frame = HANDS[name] or robot.torso
-    hand = FrameTask(robot, frame, gain=float(10 ** rng.uniform(-1, 4)),
-                     position_weight=float(10 ** rng.uniform(-3, 3)), orientation_weight=0.0, name="hand")
+    hand = FrameTask(robot, frame, gain=hand_gain, position_weight=hand_weight, orientation_weight=0.0, name="hand")
     target = config.frame_placement(hand.frame_id).copy()
     scale = {"reachable": 0.05, "absurd": 2.0, "far": 1e6}[kind]
-    d = rng.normal(size=3)
     target.translation += scale * d / np.linalg.norm(d)
     hand.set_target(target)
-    com.set_target(config.com + rng.uniform(-0.05, 0.05, 3) * (20 if kind != "reachable" else 1))
+    com.set_target(config.com + com_shift)
     if strict:
         ctrl.add_task(hand, level=0)
-        ctrl.add_task(PostureTask(robot, weight=float(10 ** rng.uniform(-2, 1))), level=1)
-        if rng.random() < 0.5:  # the CoM task moves up to the top level (above the hand)
+        ctrl.add_task(PostureTask(robot, weight=posture_weight), level=1)
+        if com_on_top:
             com_task = ctrl.tasks[0]
             ctrl.remove_task(com_task)
             ctrl.add_task(com_task, level=0)
@@ -256,7 +265,9 @@ def run_chunk(robots, limits, ticks: int, episode: int, seed: int, progress: str
         c["past_limit_episodes"] += int(past)
         c["max_dt_ms"] = max(c["max_dt_ms"], 1e3 * dt)
         try:
-            config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past)
+            # a replay draws the other episodes without building them: the rng moves on as in the run
+            config, ctrl = build_episode(robot, name, rng, kind, strict, past_limits=past,
+                                         build=replay is None or ep == replay)
             if replay is not None and ep != replay:
                 c["ticks"] += episode
                 continue
